@@ -1,0 +1,66 @@
+# Shared by scripts/test.sh (and later scripts): install what is missing, build
+# the package in a catkin workspace under _ws/ (ignored by git).
+# Sourced, not run.
+
+set -euo pipefail
+
+REPO_DIR="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+WS_DIR="${BDIS_WS_DIR:-$REPO_DIR/_ws}"
+# Debian's python has catkin_pkg; a pyenv or venv python on PATH does not.
+export PATH="/usr/bin:$PATH"
+PYTHON_EXE=/usr/bin/python3
+
+log() { printf '\033[1m[bdis]\033[0m %s\n' "$*" >&2; }
+
+# Debian 12 ships ROS 1 itself; on Ubuntu 20.04 the packages come from ROS Noetic.
+DEBIAN_PACKAGES=(
+  catkin python3-catkin-pkg ros-base-dev libopencv-dev libeigen3-dev
+  libgtest-dev googletest libbenchmark-dev
+)
+
+sudo_if_needed() {
+  if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi
+}
+
+install_dependencies() {
+  if [ -f /opt/ros/noetic/setup.bash ]; then
+    # Ubuntu 20.04 + Noetic: rosdep resolves package.xml.
+    # shellcheck disable=SC1091
+    set +u; source /opt/ros/noetic/setup.bash; set -u
+    if ! rosdep check --from-paths "$REPO_DIR" --ignore-src -q >/dev/null 2>&1; then
+      log "installing dependencies with rosdep"
+      rosdep install --from-paths "$REPO_DIR" --ignore-src -y -q
+    fi
+    if ! dpkg -s libbenchmark-dev >/dev/null 2>&1; then
+      sudo_if_needed env DEBIAN_FRONTEND=noninteractive apt-get install -y -q libbenchmark-dev || true
+    fi
+    return
+  fi
+  local missing=()
+  for pkg in "${DEBIAN_PACKAGES[@]}"; do
+    dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
+  done
+  if [ ${#missing[@]} -gt 0 ]; then
+    log "installing ${missing[*]}"
+    sudo_if_needed env DEBIAN_FRONTEND=noninteractive apt-get update -q
+    sudo_if_needed env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"
+  fi
+}
+
+build_package() {
+  mkdir -p "$WS_DIR/src"
+  ln -sfn "$REPO_DIR" "$WS_DIR/src/bdis_stereo"
+  if [ -f /opt/ros/noetic/setup.bash ]; then
+    set +u; source /opt/ros/noetic/setup.bash; set -u
+  fi
+  log "building in $WS_DIR"
+  (cd "$WS_DIR" && catkin_make -DPYTHON_EXECUTABLE="$PYTHON_EXE" -DCMAKE_BUILD_TYPE=Release \
+     -j"$(nproc)" "$@" >"$WS_DIR/build.log" 2>&1) || { tail -n 60 "$WS_DIR/build.log"; log "build failed (full log: $WS_DIR/build.log)"; return 1; }
+}
+
+source_workspace() {
+  set +u
+  # shellcheck disable=SC1091
+  source "$WS_DIR/devel/setup.bash"
+  set -u
+}

@@ -1,0 +1,439 @@
+// BDIS: coarse-to-fine 1-D inverse search per patch, a Bayesian posterior per
+// patch from a window of costs around its optimum, and posterior x spatial
+// Gaussian weighted fusion. See METHOD.md sections 1-3.
+#include "bdis_stereo/matcher.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "patch_kernels.hpp"
+#include "pyramid.hpp"
+
+namespace bdis {
+
+using detail::PyramidLevel;
+using detail::rectSum;
+using detail::ResidualSums;
+using detail::SampleSpan;
+
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// Patch origins along one axis: a regular stride plus one patch flush with
+// the far border, so every pixel is covered. clear() keeps capacity.
+void patchAxis(int extent, int p, int stride, std::vector<int>& out) {
+  out.clear();
+  for (int x = 0; x + p <= extent; x += stride) out.push_back(x);
+  if (out.empty() || out.back() != extent - p) out.push_back(extent - p);
+}
+
+std::string describe(const cv::Mat& m) {
+  return std::to_string(m.cols) + "x" + std::to_string(m.rows) + " type " +
+         cv::typeToString(m.type());
+}
+
+void validateInputs(const cv::Mat& left, const cv::Mat& right) {
+  for (const auto& [name, img] : {std::pair<const char*, const cv::Mat&>{"left", left},
+                                  std::pair<const char*, const cv::Mat&>{"right", right}}) {
+    if (img.empty()) throw std::invalid_argument(std::string(name) + " image is empty");
+    if (img.dims != 2) throw std::invalid_argument(std::string(name) + " image is not 2-D");
+    if (img.depth() != CV_8U || (img.channels() != 1 && img.channels() != 3)) {
+      throw std::invalid_argument(std::string(name) + " image is " + describe(img) +
+                                  ": expected 8-bit mono (CV_8UC1) or BGR (CV_8UC3)");
+    }
+    if (img.cols < kMinImageSide || img.rows < kMinImageSide) {
+      throw std::invalid_argument(std::string(name) + " image is " + describe(img) +
+                                  ": both sides must be at least " +
+                                  std::to_string(kMinImageSide) + " px");
+    }
+  }
+  if (left.size() != right.size()) {
+    throw std::invalid_argument("left image is " + describe(left) + " but right is " +
+                                describe(right) + ": a rectified pair has equal sizes");
+  }
+  if (left.type() != right.type()) {
+    throw std::invalid_argument("left image is " + describe(left) + " but right is " +
+                                describe(right) + ": both must have the same type");
+  }
+}
+
+}  // namespace
+
+/// Result of one patch at one level.
+struct PatchEstimate {
+  float disparity = 0.f;  ///< at the level's scale
+  float posterior = 0.f;  ///< 0 when discarded
+  float variance = 0.f;   ///< px^2 at the level's scale
+};
+
+struct Matcher::Impl {
+  MatcherParams params;
+  detail::StereoPyramid pyramid;
+
+  // Per-level state, sized on the first frame of a given size.
+  std::vector<cv::Mat1f> init_disparity;  ///< dense coarse-to-fine initialisation per level
+  std::vector<cv::Mat1f> init_confidence;
+  cv::Mat1f fused_num, fused_den, conf_sum, cover_count, var_num, var_den;
+  cv::Mat1f level_disparity, level_confidence, level_variance;  ///< finest level, floored
+  std::vector<int> xs, ys;
+  std::vector<PatchEstimate> patches;
+
+  // Per-patch scratch, p*p or row-sized.
+  std::vector<float> tmpl, grad, spatial, row_buf, costs, likelihood;
+  std::vector<uchar> tmpl_valid;
+  cv::Size sized_for{0, 0};
+  int sized_levels = 0;
+  int sized_patch = 0;
+  int sized_window = 0;
+
+  void allocate(cv::Size size, int levels);
+  void matchLevel(int s, bool finest);
+  PatchEstimate searchPatch(const PyramidLevel& L, int x0, int y0, float u_init);
+  void fuseLevel(int s, bool finest);
+  void upsampleToFull(int s, const cv::Mat& left, MatchResult& out) const;
+};
+
+Matcher::Matcher(const MatcherParams& params) : impl_(std::make_unique<Impl>()) {
+  setParams(params);
+}
+Matcher::~Matcher() = default;
+Matcher::Matcher(Matcher&&) noexcept = default;
+Matcher& Matcher::operator=(Matcher&&) noexcept = default;
+
+void Matcher::setParams(const MatcherParams& params) {
+  params.validate();
+  impl_->params = params;
+}
+
+const MatcherParams& Matcher::params() const { return impl_->params; }
+
+void Matcher::Impl::allocate(cv::Size size, int levels) {
+  const int p = params.patch_size;
+  const int window = 2 * params.window_half_width + 1;
+  if (size == sized_for && levels == sized_levels && p == sized_patch && window == sized_window) {
+    return;
+  }
+  init_disparity.resize(static_cast<size_t>(levels) + 1);
+  init_confidence.resize(static_cast<size_t>(levels) + 1);
+  for (int s = 0; s <= levels; ++s) {
+    init_disparity[s].create(std::max(1, size.height >> s), std::max(1, size.width >> s));
+    init_confidence[s].create(init_disparity[s].size());
+  }
+  // Level-sized buffers are allocated at the largest searched level (the finest).
+  const cv::Size largest(size.width >> params.finest_level, size.height >> params.finest_level);
+  for (cv::Mat1f* m : {&fused_num, &fused_den, &conf_sum, &cover_count, &var_num, &var_den,
+                       &level_disparity, &level_confidence, &level_variance}) {
+    m->create(largest);
+  }
+  const size_t max_patches =
+      static_cast<size_t>(largest.width / 1 + 2) * static_cast<size_t>(largest.height / 1 + 2);
+  xs.reserve(static_cast<size_t>(largest.width) + 2);
+  ys.reserve(static_cast<size_t>(largest.height) + 2);
+  patches.reserve(max_patches);
+  const size_t pp = static_cast<size_t>(p) * p;
+  tmpl.resize(pp);
+  grad.resize(pp);
+  tmpl_valid.resize(pp);
+  spatial.resize(pp);
+  const int max_window_span = static_cast<int>(
+      std::ceil(2.f * static_cast<float>(params.window_half_width) * params.window_step));
+  row_buf.resize(static_cast<size_t>(p + max_window_span + 2));
+  costs.resize(static_cast<size_t>(window));
+  likelihood.resize(static_cast<size_t>(window));
+  sized_for = size;
+  sized_levels = levels;
+  sized_patch = p;
+  sized_window = window;
+}
+
+void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& result) {
+  validateInputs(left, right);
+  Impl& m = *impl_;
+  const MatcherParams& P = m.params;
+  const int p = P.patch_size;
+
+  // Levels that hold at least one patch; the finest level is clamped alike.
+  const int levels = detail::levelsThatFit(left.cols, left.rows, p, P.coarsest_level + 1);
+  const int coarsest = levels - 1;
+  const int finest = std::min(P.finest_level, coarsest);
+
+  MatcherParams effective = P;
+  effective.finest_level = finest;
+  std::swap(m.params, effective);
+  m.allocate(left.size(), levels);
+  m.pyramid.build(left, right, levels, finest);
+
+  // Spatial Gaussian, once per frame (cheap, p*p) so parameter changes apply.
+  const float c = 0.5f * static_cast<float>(p - 1);
+  const float inv2s2 = 1.f / (2.f * P.sigma_s * P.sigma_s);
+  for (int y = 0; y < p; ++y) {
+    for (int x = 0; x < p; ++x) {
+      const float dx = static_cast<float>(x) - c, dy = static_cast<float>(y) - c;
+      m.spatial[static_cast<size_t>(y * p + x)] = std::exp(-(dx * dx + dy * dy) * inv2s2);
+    }
+  }
+
+  // Start from zero disparity above the coarsest level.
+  m.init_disparity[levels].setTo(0.f);
+  m.init_confidence[levels].setTo(0.f);
+  for (int s = coarsest; s >= finest; --s) m.matchLevel(s, s == finest);
+  m.upsampleToFull(finest, left, result);
+  std::swap(m.params, effective);
+}
+
+void Matcher::Impl::matchLevel(int s, bool finest) {
+  const PyramidLevel& L = pyramid.level(s);
+  const int p = params.patch_size;
+  const int stride = std::max(1, static_cast<int>(std::lround(p * (1.0 - params.overlap))));
+  patchAxis(L.width, p, stride, xs);
+  patchAxis(L.height, p, stride, ys);
+  patches.resize(xs.size() * ys.size());
+
+  const cv::Mat1f& coarse = init_disparity[s + 1];
+  const float half = 0.5f * static_cast<float>(p - 1);
+  size_t k = 0;
+  for (int y0 : ys) {
+    for (int x0 : xs) {
+      // Coarser level's dense disparity at the patch centre, times 2.
+      const float cx = (static_cast<float>(x0) + half + 0.5f) * 0.5f - 0.5f;
+      const float cy = (static_cast<float>(y0) + half + 0.5f) * 0.5f - 0.5f;
+      const int ix = std::clamp(static_cast<int>(std::lround(cx)), 0, coarse.cols - 1);
+      const int iy = std::clamp(static_cast<int>(std::lround(cy)), 0, coarse.rows - 1);
+      patches[k++] = searchPatch(L, x0, y0, 2.f * coarse(iy, ix));
+    }
+  }
+  fuseLevel(s, finest);
+}
+
+PatchEstimate Matcher::Impl::searchPatch(const PyramidLevel& L, int x0, int y0, float u_init) {
+  const int p = params.patch_size;
+  const int pp = p * p;
+  PatchEstimate est;
+  est.disparity = u_init;
+
+  // Template, gradient and validity of the left patch.
+  const int left_invalid = rectSum(L.left_invalid, x0, y0, x0 + p, y0 + p);
+  if (static_cast<float>(pp - left_invalid) < params.min_valid_share * static_cast<float>(pp)) {
+    return est;  // mostly outside the rectified view
+  }
+  for (int y = 0; y < p; ++y) {
+    std::copy_n(L.left[y0 + y] + x0, p, tmpl.data() + y * p);
+    std::copy_n(L.left_gx[y0 + y] + x0, p, grad.data() + y * p);
+    std::copy_n(L.left_valid[y0 + y] + x0, p, tmpl_valid.data() + y * p);
+  }
+  const bool left_all_valid = left_invalid == 0;
+  const float g_all = static_cast<float>(rectSum(L.gx_sum, x0, y0, x0 + p, y0 + p));
+  const float gg_all = static_cast<float>(rectSum(L.gx_sq_sum, x0, y0, x0 + p, y0 + p));
+  const bool normalise = params.mean_normalization;
+
+  // Sums at disparity u, through the fast path when nothing invalid is near.
+  auto sums = [&](float u, bool want_cost, ResidualSums& r) {
+    const SampleSpan span = detail::sampleSpan(x0, u);
+    const bool fast = left_all_valid && span.base >= 0 && span.base + p < L.width &&
+                      rectSum(L.right_invalid, span.base, y0, span.base + p + 1, y0 + p) == 0;
+    if (fast) {
+      detail::sumsAllValid(L.right, y0, p, span, tmpl.data(), grad.data(), want_cost,
+                           row_buf.data(), r);
+      r.g = g_all;
+      r.g_sq = gg_all;
+    } else {
+      detail::sumsMasked(L.right, L.right_valid, y0, p, span, tmpl.data(), grad.data(),
+                         tmpl_valid.data(), r);
+    }
+  };
+  // Mean squared residual (mean-normalised if enabled); +inf without pixels.
+  auto cost = [&](const ResidualSums& r) {
+    if (r.count <= 0.f) return std::numeric_limits<float>::infinity();
+    const float mean = r.diff / r.count;
+    return r.diff_sq / r.count - (normalise ? mean * mean : 0.f);
+  };
+
+  // Inverse-compositional Gauss-Newton along x, d >= 0.
+  const float max_u = static_cast<float>(L.width);
+  float u = u_init;
+  ResidualSums r;
+  for (int it = 0; it < params.iterations; ++it) {
+    sums(u, false, r);
+    if (r.count <= 0.f) break;
+    float b = r.g_diff, H = r.g_sq;
+    if (normalise) {
+      b -= r.diff * r.g / r.count;
+      H -= r.g * r.g / r.count;
+    }
+    if (H <= 1e-6f) break;  // no texture: nothing to align on
+    const float step = b / H;
+    u = std::clamp(u + step, 0.f, max_u);
+    if (std::fabs(step) < 1e-3f) break;
+  }
+  // Outlier guard: wandered more than a patch from its start.
+  if (std::fabs(u - u_init) > static_cast<float>(p)) u = u_init;
+  est.disparity = u;
+
+  // Posterior over the window u + k*delta, k = -n..n.
+  const int n = params.window_half_width;
+  const float delta = params.window_step;
+  float valid_at_optimum = 0.f;
+  for (int j = -n; j <= n; ++j) {
+    sums(u + static_cast<float>(j) * delta, true, r);
+    costs[static_cast<size_t>(j + n)] = cost(r);
+    if (j == 0) valid_at_optimum = r.count;
+  }
+  if (valid_at_optimum < params.min_valid_share * static_cast<float>(pp)) return est;
+  const float e0 = costs[static_cast<size_t>(n)];
+  if (!std::isfinite(e0)) return est;
+  // Local-minimum test: a neighbour as good as the optimum means a flat or
+  // saddle cost, not a converged match.
+  for (int j = 0; j < 2 * n + 1; ++j) {
+    if (j != n && costs[static_cast<size_t>(j)] <= e0) return est;
+  }
+  const float sigma2 = params.sigma_r * params.sigma_r + params.contrast_share * e0;
+  const float inv = 1.f / (2.f * sigma2);
+  float sum = 0.f;
+  for (int j = 0; j < 2 * n + 1; ++j) {
+    const float e = costs[static_cast<size_t>(j)];
+    likelihood[static_cast<size_t>(j)] = std::isfinite(e) ? std::exp(-(e - e0) * inv) : 0.f;
+    sum += likelihood[static_cast<size_t>(j)];
+  }
+  est.posterior = 1.f / sum;  // likelihood at the optimum is exp(0) = 1
+
+  if (params.compute_variance) {
+    // Zero-mean Gaussian with free scale through the window posteriors:
+    // least squares of log p_j = a - x_j / (2 v), x_j = (j delta)^2.
+    float sx = 0, sy = 0, sxx = 0, sxy = 0, cnt = 0;
+    for (int j = -n; j <= n; ++j) {
+      const float l = likelihood[static_cast<size_t>(j + n)];
+      if (l <= 0.f) continue;
+      const float x = static_cast<float>(j * j) * delta * delta;
+      const float yv = std::log(l / sum);
+      sx += x, sy += yv, sxx += x * x, sxy += x * yv, cnt += 1;
+    }
+    const float denom = cnt * sxx - sx * sx;
+    const float slope = denom > 0.f ? (cnt * sxy - sx * sy) / denom : 0.f;
+    const float max_var = 4.f * static_cast<float>(n * n) * delta * delta;
+    est.variance = slope < 0.f ? std::min(max_var, -0.5f / slope) : max_var;
+  }
+  return est;
+}
+
+void Matcher::Impl::fuseLevel(int s, bool finest) {
+  const PyramidLevel& L = pyramid.level(s);
+  const int p = params.patch_size;
+  const cv::Rect roi(0, 0, L.width, L.height);
+  cv::Mat1f num = fused_num(roi), den = fused_den(roi), csum = conf_sum(roi),
+            cover = cover_count(roi), vnum = var_num(roi), vden = var_den(roi);
+  for (cv::Mat1f* m : {&num, &den, &csum, &cover, &vnum, &vden}) m->setTo(0.f);
+  const bool variance = params.compute_variance && finest;
+
+  size_t k = 0;
+  for (int y0 : ys) {
+    for (int x0 : xs) {
+      const PatchEstimate& e = patches[k++];
+      for (int y = 0; y < p; ++y) {
+        float* c = cover[y0 + y] + x0;
+        for (int x = 0; x < p; ++x) c[x] += 1.f;
+      }
+      if (e.posterior <= 0.f) continue;
+      for (int y = 0; y < p; ++y) {
+        const float* g = spatial.data() + y * p;
+        float* nr = num[y0 + y] + x0;
+        float* dr = den[y0 + y] + x0;
+        float* cr = csum[y0 + y] + x0;
+        for (int x = 0; x < p; ++x) {
+          const float w = e.posterior * g[x];
+          nr[x] += w * e.disparity;
+          dr[x] += w;
+          cr[x] += e.posterior;
+        }
+        if (variance) {
+          float* vn = vnum[y0 + y] + x0;
+          float* vd = vden[y0 + y] + x0;
+          for (int x = 0; x < p; ++x) {
+            const float w = e.posterior * g[x];
+            vn[x] += w * w * e.variance;
+            vd[x] += w * w;
+          }
+        }
+      }
+    }
+  }
+
+  // Dense initialisation for the next finer level: the fused value where any
+  // patch survived, otherwise this level's own initialisation.
+  cv::Mat1f& init = init_disparity[s];
+  cv::Mat1f& init_conf = init_confidence[s];
+  const cv::Mat1f& coarse = init_disparity[s + 1];
+  for (int y = 0; y < L.height; ++y) {
+    const int cy = std::min(y / 2, coarse.rows - 1);
+    for (int x = 0; x < L.width; ++x) {
+      const float d = den(y, x);
+      const float conf = cover(y, x) > 0.f ? csum(y, x) / cover(y, x) : 0.f;
+      init_conf(y, x) = conf;
+      init(y, x) = d > 0.f ? num(y, x) / d : 2.f * coarse(cy, std::min(x / 2, coarse.cols - 1));
+      if (finest) {
+        const bool keep = d > 0.f && conf >= params.confidence_floor;
+        level_disparity(y, x) = keep ? init(y, x) : kNoDisparity;
+        level_confidence(y, x) = keep ? conf : 0.f;
+        if (variance) level_variance(y, x) = keep ? vnum(y, x) / vden(y, x) : kNaN;
+      }
+    }
+  }
+}
+
+void Matcher::Impl::upsampleToFull(int s, const cv::Mat& left, MatchResult& out) const {
+  const int W = left.cols, H = left.rows;
+  const PyramidLevel& L = pyramid.level(s);
+  const bool variance = params.compute_variance;
+  out.disparity.create(H, W, CV_32FC1);
+  out.confidence.create(H, W, CV_32FC1);
+  if (variance) {
+    out.variance.create(H, W, CV_32FC1);
+  } else {
+    out.variance.release();
+  }
+  const PyramidLevel& full = pyramid.level(0);
+  const float scale = static_cast<float>(1 << s);
+  const float inv = 1.f / scale;
+  const float var_scale = scale * scale;
+  for (int y = 0; y < H; ++y) {
+    float* dout = out.disparity.ptr<float>(y);
+    float* cout = out.confidence.ptr<float>(y);
+    float* vout = variance ? out.variance.ptr<float>(y) : nullptr;
+    const uchar* valid = full.left_valid[y];
+    const float fy = std::clamp((static_cast<float>(y) + 0.5f) * inv - 0.5f, 0.f,
+                                static_cast<float>(L.height - 1));
+    const int y0 = static_cast<int>(fy);
+    const int y1 = std::min(y0 + 1, L.height - 1);
+    const float ay = fy - static_cast<float>(y0);
+    for (int x = 0; x < W; ++x) {
+      const float fx = std::clamp((static_cast<float>(x) + 0.5f) * inv - 0.5f, 0.f,
+                                  static_cast<float>(L.width - 1));
+      const int x0 = static_cast<int>(fx);
+      const int x1 = std::min(x0 + 1, L.width - 1);
+      const float ax = fx - static_cast<float>(x0);
+      const int xs4[4] = {x0, x1, x0, x1};
+      const int ys4[4] = {y0, y0, y1, y1};
+      const float w4[4] = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
+      // Interpolate among neighbours that have an estimate.
+      float wsum = 0, dsum = 0, csum = 0, vsum = 0;
+      for (int i = 0; i < 4; ++i) {
+        const float d = level_disparity(ys4[i], xs4[i]);
+        if (d < 0.f) continue;
+        wsum += w4[i];
+        dsum += w4[i] * d;
+        csum += w4[i] * level_confidence(ys4[i], xs4[i]);
+        if (variance) vsum += w4[i] * level_variance(ys4[i], xs4[i]);
+      }
+      const bool keep = valid[x] && wsum > 0.25f;
+      dout[x] = keep ? scale * dsum / wsum : kNoDisparity;
+      cout[x] = keep ? csum / wsum : 0.f;
+      if (variance) vout[x] = keep ? var_scale * vsum / wsum : kNaN;
+    }
+  }
+}
+
+}  // namespace bdis

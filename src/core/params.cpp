@@ -1,0 +1,186 @@
+#include "bdis_stereo/params.hpp"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include <opencv2/core.hpp>
+
+namespace bdis {
+namespace {
+
+using Type = ParamField::Type;
+
+template <typename T>
+ParamField field(const char* name, T MatcherParams::*member, double lo, double hi,
+                 const char* description) {
+  constexpr Type type = std::is_same<T, bool>::value  ? Type::Bool
+                        : std::is_same<T, int>::value ? Type::Int
+                                                      : Type::Float;
+  return {name,
+          type,
+          lo,
+          hi,
+          description,
+          [member](const MatcherParams& p) { return static_cast<double>(p.*member); },
+          [member](MatcherParams& p, double v) { p.*member = static_cast<T>(v); }};
+}
+
+std::string formatValue(const ParamField& f, double v) {
+  std::ostringstream os;
+  if (f.type == Type::Bool) {
+    os << (v != 0.0 ? "true" : "false");
+  } else {
+    os << v;
+  }
+  return os.str();
+}
+
+}  // namespace
+
+const std::vector<ParamField>& paramFields() {
+  static const std::vector<ParamField> fields = {
+      field("coarsest_level", &MatcherParams::coarsest_level, 0, 10,
+            "coarsest pyramid level s_first (image / 2^s); reduced for small images"),
+      field("finest_level", &MatcherParams::finest_level, 0, 10,
+            "finest searched level s_last; the result is upsampled to full size"),
+      field("iterations", &MatcherParams::iterations, 1, 200,
+            "Gauss-Newton iterations per patch"),
+      field("patch_size", &MatcherParams::patch_size, 4, 32, "patch side p, px at each level"),
+      field("overlap", &MatcherParams::overlap, 0.0, 0.95,
+            "patch overlap; stride = max(1, round(p * (1 - overlap)))"),
+      field("mean_normalization", &MatcherParams::mean_normalization, 0, 1,
+            "subtract patch means so a brightness offset between cameras cancels"),
+      field("min_valid_share", &MatcherParams::min_valid_share, 0.0, 1.0,
+            "gamma: minimum share of valid (non-black) pixels in a patch"),
+      field("window_half_width", &MatcherParams::window_half_width, 1, 10,
+            "n: the posterior window has 2n+1 disparity samples"),
+      field("window_step", &MatcherParams::window_step, 0.05, 4.0,
+            "delta: spacing of the posterior window samples, px at the level"),
+      field("sigma_r", &MatcherParams::sigma_r, 0.1, 255.0,
+            "brightness noise of the likelihood, grey levels"),
+      field("contrast_share", &MatcherParams::contrast_share, 0.0, 100.0,
+            "share of the optimum's own residual added to sigma_r^2 (0 = paper's posterior)"),
+      field("sigma_s", &MatcherParams::sigma_s, 0.1, 100.0,
+            "spatial Gaussian inside a patch, px at the level"),
+      field("confidence_floor", &MatcherParams::confidence_floor, 0.0, 1.0,
+            "pixels with lower confidence get no disparity"),
+      field("compute_variance", &MatcherParams::compute_variance, 0, 1,
+            "also compute the per-pixel disparity variance (px^2)"),
+  };
+  return fields;
+}
+
+const ParamField* findParamField(const std::string& name) {
+  for (const ParamField& f : paramFields()) {
+    if (name == f.name) return &f;
+  }
+  return nullptr;
+}
+
+void MatcherParams::validate() const {
+  for (const ParamField& f : paramFields()) {
+    const double v = f.get(*this);
+    if (!std::isfinite(v) || v < f.min_value || v > f.max_value) {
+      std::ostringstream os;
+      os << "parameter " << f.name << " = " << v << " is out of range [" << f.min_value << ", "
+         << f.max_value << "]: " << f.description;
+      throw std::invalid_argument(os.str());
+    }
+  }
+  if (finest_level > coarsest_level) {
+    throw std::invalid_argument("parameter finest_level = " + std::to_string(finest_level) +
+                                " is coarser than coarsest_level = " +
+                                std::to_string(coarsest_level) +
+                                ": finest_level must be <= coarsest_level");
+  }
+}
+
+std::vector<std::string> MatcherParams::presetNames() { return {"fast", "balanced", "accurate"}; }
+
+MatcherParams MatcherParams::preset(const std::string& name) {
+  MatcherParams p;  // balanced: the defaults
+  if (name == "balanced") return p;
+  if (name == "fast") {
+    p.iterations = 8;
+    p.overlap = 0.3f;
+    return p;
+  }
+  if (name == "accurate") {
+    p.iterations = 16;
+    p.overlap = 0.6f;
+    p.window_step = 0.5f;
+    return p;
+  }
+  throw std::invalid_argument("unknown preset '" + name +
+                              "': expected one of fast, balanced, accurate");
+}
+
+MatcherParams loadParams(const std::string& path, const MatcherParams& base) {
+  cv::FileStorage fs;
+  try {
+    fs.open(path, cv::FileStorage::READ | cv::FileStorage::FORMAT_AUTO);
+  } catch (const cv::Exception& e) {
+    throw std::invalid_argument("cannot parse parameter file " + path + ": " + e.what());
+  }
+  if (!fs.isOpened()) throw std::invalid_argument("cannot open parameter file " + path);
+  MatcherParams p = base;
+  const cv::FileNode root = fs.root();
+  if (!root.isMap()) {
+    throw std::invalid_argument("parameter file " + path + " is not a map of name: value pairs");
+  }
+  const cv::FileNode preset_node = root["preset"];
+  if (!preset_node.empty()) {
+    if (!preset_node.isString()) {
+      throw std::invalid_argument("parameter file " + path + ": preset must be a name");
+    }
+    p = MatcherParams::preset(static_cast<std::string>(preset_node));
+  }
+  for (const cv::FileNode& node : root) {
+    const std::string key = node.name();
+    if (key == "preset") continue;
+    const ParamField* f = findParamField(key);
+    if (!f) {
+      throw std::invalid_argument("parameter file " + path + ": unknown parameter '" + key + "'");
+    }
+    double v = 0.0;
+    if (node.isInt() || node.isReal()) {
+      v = static_cast<double>(node);
+    } else if (node.isString() && f->type == Type::Bool) {
+      const std::string s = static_cast<std::string>(node);
+      if (s == "true" || s == "True") {
+        v = 1.0;
+      } else if (s == "false" || s == "False") {
+        v = 0.0;
+      } else {
+        throw std::invalid_argument("parameter file " + path + ": " + key +
+                                    " must be true or false, not '" + s + "'");
+      }
+    } else {
+      throw std::invalid_argument("parameter file " + path + ": " + key + " must be a number");
+    }
+    if (f->type != Type::Float && v != std::floor(v)) {
+      throw std::invalid_argument("parameter file " + path + ": " + key +
+                                  " must be a whole number, not " + formatValue(*f, v));
+    }
+    if (v < f->min_value || v > f->max_value) {
+      throw std::invalid_argument("parameter file " + path + ": " + key + " = " +
+                                  formatValue(*f, v) + " is out of range [" +
+                                  formatValue(*f, f->min_value) + ", " +
+                                  formatValue(*f, f->max_value) + "]");
+    }
+    f->set(p, v);
+  }
+  p.validate();
+  return p;
+}
+
+std::string toYaml(const MatcherParams& params) {
+  std::ostringstream os;
+  for (const ParamField& f : paramFields()) {
+    os << f.name << ": " << formatValue(f, f.get(params)) << "\n";
+  }
+  return os.str();
+}
+
+}  // namespace bdis

@@ -1,0 +1,99 @@
+// Inner loops of the patch search: sums over one patch of the residual between
+// the right image, sampled at a horizontal sub-pixel offset, and the left
+// template. Rectified stereo moves only along x, so one interpolation weight
+// serves the whole patch: each sample is a 2-tap filter with constant taps.
+#pragma once
+
+#include <cmath>
+
+#include <opencv2/core.hpp>
+
+namespace bdis {
+namespace detail {
+
+/// Sums over the valid pixels of a patch; diff = R(x - u) - T(x).
+struct ResidualSums {
+  float count = 0;    ///< valid pixels
+  float diff = 0;     ///< sum diff
+  float diff_sq = 0;  ///< sum diff^2
+  float g_diff = 0;   ///< sum gx * diff
+  float g = 0;        ///< sum gx (masked path only; fast path takes it from integrals)
+  float g_sq = 0;     ///< sum gx^2 (masked path only)
+};
+
+/// Where the right patch is sampled: columns base .. base+p (inclusive) with
+/// weight `frac` on the right neighbour.
+struct SampleSpan {
+  int base;
+  float frac;
+};
+
+inline SampleSpan sampleSpan(int x0, float disparity) {
+  const float xs = static_cast<float>(x0) - disparity;
+  const float fl = std::floor(xs);
+  return {static_cast<int>(fl), xs - fl};
+}
+
+/// Interpolates `len` samples of a right-image row starting at column `base`.
+inline void interpolateRow(const float* row, int base, float frac, int len, float* out) {
+  const float w0 = 1.f - frac;
+  const float* r = row + base;
+  for (int i = 0; i < len; ++i) out[i] = w0 * r[i] + frac * r[i + 1];
+}
+
+/// Fast path: every template pixel valid and the right span [base, base+p]
+/// inside the image and valid. T and G are p*p, row-major.
+inline void sumsAllValid(const cv::Mat1f& right, int y0, int p, SampleSpan span, const float* T,
+                         const float* G, bool want_cost, float* row_buf, ResidualSums& out) {
+  float sd = 0, sdd = 0, sgd = 0;
+  for (int y = 0; y < p; ++y) {
+    interpolateRow(right[y0 + y], span.base, span.frac, p, row_buf);
+    const float* t = T + y * p;
+    const float* g = G + y * p;
+    for (int i = 0; i < p; ++i) {
+      const float d = row_buf[i] - t[i];
+      sd += d;
+      sgd += g[i] * d;
+      if (want_cost) sdd += d * d;
+    }
+  }
+  out.count = static_cast<float>(p * p);
+  out.diff = sd;
+  out.diff_sq = sdd;
+  out.g_diff = sgd;
+}
+
+/// General path: pixels invalid in the template (M == 0), outside the image,
+/// or touching an invalid right pixel are left out of every sum.
+inline void sumsMasked(const cv::Mat1f& right, const cv::Mat1b& right_valid, int y0, int p,
+                       SampleSpan span, const float* T, const float* G, const uchar* M,
+                       ResidualSums& out) {
+  const int w = right.cols;
+  const bool two_taps = span.frac > 0.f;
+  const float w0 = 1.f - span.frac;
+  float n = 0, sd = 0, sdd = 0, sgd = 0, sg = 0, sgg = 0;
+  for (int y = 0; y < p; ++y) {
+    const float* r = right[y0 + y];
+    const uchar* rv = right_valid[y0 + y];
+    const float* t = T + y * p;
+    const float* g = G + y * p;
+    const uchar* m = M + y * p;
+    for (int i = 0; i < p; ++i) {
+      const int xr = span.base + i;
+      if (!m[i] || xr < 0 || xr + (two_taps ? 1 : 0) >= w) continue;
+      if (!rv[xr] || (two_taps && !rv[xr + 1])) continue;
+      const float sample = two_taps ? w0 * r[xr] + span.frac * r[xr + 1] : r[xr];
+      const float d = sample - t[i];
+      n += 1;
+      sd += d;
+      sdd += d * d;
+      sgd += g[i] * d;
+      sg += g[i];
+      sgg += g[i] * g[i];
+    }
+  }
+  out = {n, sd, sdd, sgd, sg, sgg};
+}
+
+}  // namespace detail
+}  // namespace bdis

@@ -1,0 +1,52 @@
+// Image pyramid for the matcher: grey float images, validity masks and the
+// integral images that make per-patch sums O(1). Every buffer is sized once
+// per input size; build() on a frame of the same size allocates nothing.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace bdis {
+namespace detail {
+
+/// One pyramid level of one stereo pair.
+struct PyramidLevel {
+  int width = 0;
+  int height = 0;
+  cv::Mat1f left;        ///< grey, 0..255
+  cv::Mat1f right;
+  cv::Mat1f left_gx;     ///< horizontal gradient of left, from valid neighbours only
+  cv::Mat1b left_valid;  ///< 1 where the pixel lies inside the rectified view
+  cv::Mat1b right_valid;
+  // Integral images ((h+1) x (w+1)), used by the all-valid fast path.
+  cv::Mat1d left_sum;       ///< sum of left
+  cv::Mat1d gx_sum;         ///< sum of gx
+  cv::Mat1d gx_sq_sum;      ///< sum of gx^2 (the 1-D Hessian)
+  cv::Mat1i left_invalid;   ///< count of invalid left pixels
+  cv::Mat1i right_invalid;  ///< count of invalid right pixels
+};
+
+/// Sum of an integral image over [x0, x1) x [y0, y1).
+template <typename T>
+inline T rectSum(const cv::Mat_<T>& integral, int x0, int y0, int x1, int y1) {
+  return integral(y1, x1) - integral(y0, x1) - integral(y1, x0) + integral(y0, x0);
+}
+
+class StereoPyramid {
+ public:
+  /// Builds levels 0..num_levels-1 from 8-bit mono or BGR inputs of equal size;
+  /// gradients and integral images only from `first_searched_level` on.
+  void build(const cv::Mat& left, const cv::Mat& right, int num_levels, int first_searched_level);
+  const PyramidLevel& level(int s) const { return levels_[s]; }
+  int numLevels() const { return static_cast<int>(levels_.size()); }
+
+ private:
+  std::vector<PyramidLevel> levels_;
+};
+
+/// Largest level count (>= 1) whose coarsest level still holds one patch of `patch_size`.
+int levelsThatFit(int width, int height, int patch_size, int wanted_levels);
+
+}  // namespace detail
+}  // namespace bdis

@@ -1,0 +1,53 @@
+// Small pieces shared by the offline tools: error handling that always exits
+// with a message (never a signal), parameter loading, a progress bar, timing.
+#pragma once
+
+#include <chrono>
+#include <stdexcept>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "bdis_stereo/params.hpp"
+
+namespace bdis {
+namespace tools {
+
+/// Runs `body`, turning any exception into "<tool>: error: <what>" on stderr
+/// and exit code 1 (2 for usage errors thrown as UsageError).
+int runGuarded(const char* tool, const std::function<int()>& body);
+
+/// Thrown for bad command lines; runGuarded prints the usage text too.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// Preset (default "balanced") then an optional YAML file on top.
+MatcherParams resolveParams(const std::string& preset, const std::string& params_file);
+
+/// Applies "name=value" to one field; throws UsageError naming the field.
+MatcherParams applyOverride(MatcherParams params, const std::string& assignment);
+
+/// Monotonic milliseconds.
+inline double nowMs() {
+  using namespace std::chrono;
+  return duration<double, std::milli>(steady_clock::now().time_since_epoch()).count();
+}
+
+double median(std::vector<double> values);
+
+/// A one-line progress bar on stderr, redrawn in place.
+class ProgressBar {
+ public:
+  ProgressBar(size_t total, std::string label);
+  void update(size_t done);
+  void finish();
+
+ private:
+  size_t total_;
+  std::string label_;
+  bool finished_ = false;
+};
+
+}  // namespace tools
+}  // namespace bdis
