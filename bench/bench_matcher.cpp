@@ -1,1 +1,83 @@
-int main(){}
+// Per-frame compute time of the matcher (each preset) against OpenCV's DIS
+// fast preset on the same frames in the same process, single-threaded.
+// Frames: the synthetic sequences of the shared data folder ($BDIS_DATA_DIR or
+// ../shared/data); without them, a procedurally textured 640x480 pair.
+// Pin to one core for stable numbers: taskset -c 1 bdis_bench
+#include <benchmark/benchmark.h>
+
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
+
+#include "bdis_stereo/evaluation.hpp"
+#include "bdis_stereo/matcher.hpp"
+
+namespace {
+
+struct Frames {
+  std::vector<std::pair<cv::Mat, cv::Mat>> pairs;  // BGR left, right
+};
+
+const Frames& frames() {
+  static const Frames f = [] {
+    Frames out;
+    const std::string data = bdis::findDataDir();
+    if (!data.empty()) {
+      for (const char* name : {"synthetic_colon_diffuse", "synthetic_colon_specular"}) {
+        const bdis::StereoSequence seq = bdis::StereoSequence::open(data + "/" + name);
+        for (size_t i = 0; i < seq.names.size(); ++i) out.pairs.emplace_back(seq.left(i), seq.right(i));
+      }
+    } else {
+      cv::Mat noise(480, 700, CV_8UC3);
+      cv::randu(noise, 20, 235);
+      cv::GaussianBlur(noise, noise, cv::Size(0, 0), 2.0);
+      out.pairs.emplace_back(noise(cv::Rect(30, 0, 640, 480)).clone(),
+                             noise(cv::Rect(0, 0, 640, 480)).clone());
+    }
+    return out;
+  }();
+  return f;
+}
+
+void BM_Bdis(benchmark::State& state, const std::string& preset) {
+  cv::setNumThreads(1);
+  bdis::Matcher matcher(bdis::MatcherParams::preset(preset));
+  bdis::MatchResult result;
+  const auto& pairs = frames().pairs;
+  matcher.compute(pairs[0].first, pairs[0].second, result);  // size buffers
+  size_t i = 0;
+  for (auto _ : state) {
+    const auto& p = pairs[i++ % pairs.size()];
+    matcher.compute(p.first, p.second, result);
+    benchmark::DoNotOptimize(result.disparity.data);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+
+void BM_OpenCvDisFast(benchmark::State& state) {
+  cv::setNumThreads(1);
+  auto dis = cv::DISOpticalFlow::create(cv::DISOpticalFlow::PRESET_FAST);
+  const auto& pairs = frames().pairs;
+  std::vector<std::pair<cv::Mat, cv::Mat>> grey(pairs.size());
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    cv::cvtColor(pairs[k].first, grey[k].first, cv::COLOR_BGR2GRAY);
+    cv::cvtColor(pairs[k].second, grey[k].second, cv::COLOR_BGR2GRAY);
+  }
+  cv::Mat flow;
+  size_t i = 0;
+  for (auto _ : state) {
+    const auto& p = grey[i++ % grey.size()];
+    dis->calc(p.first, p.second, flow);
+    benchmark::DoNotOptimize(flow.data);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+
+BENCHMARK(BM_OpenCvDisFast)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK_CAPTURE(BM_Bdis, fast, std::string("fast"))->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK_CAPTURE(BM_Bdis, balanced, std::string("balanced"))->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK_CAPTURE(BM_Bdis, accurate, std::string("accurate"))->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -38,6 +38,16 @@ cv::Mat readDisparityPng(const std::string& path);
 /// clamped to the 16-bit range. Throws std::runtime_error on failure.
 void writeDisparityPng(const std::string& path, const cv::Mat& disparity);
 
+/// Reads an image as stored (IMREAD_UNCHANGED); 8-bit BGRA becomes BGR.
+/// Anything else (16-bit, float) is returned as is, so the matcher rejects it
+/// with its own message. Throws std::runtime_error naming the file when it is
+/// missing, a directory or not a readable image.
+cv::Mat readStereoImage(const std::string& path);
+
+/// Names of the regular files present in both directories, sorted. Throws
+/// std::runtime_error when either is not a directory.
+std::vector<std::string> pairedFileNames(const std::string& dir_a, const std::string& dir_b);
+
 /// One stereo sequence on disk.
 struct StereoSequence {
   std::string root;
@@ -46,7 +56,7 @@ struct StereoSequence {
 
   /// Lists the sequence; throws std::runtime_error if left/ or right/ is missing or empty.
   static StereoSequence open(const std::string& root);
-  cv::Mat left(size_t i) const;    ///< as stored (8-bit BGR or mono); throws on read failure
+  cv::Mat left(size_t i) const;    ///< readStereoImage of left/<name>
   cv::Mat right(size_t i) const;
   cv::Mat groundTruth(size_t i) const;  ///< CV_32FC1 px, 0 = unknown (not -1)
 };

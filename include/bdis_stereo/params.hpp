@@ -23,16 +23,18 @@ struct MatcherParams {
   // Patch search (inverse-compositional, 1-D).
   int iterations = 12;      ///< Gauss-Newton steps per patch
   int patch_size = 8;       ///< side p of the square patches, px at each level
-  float overlap = 0.4f;     ///< stride = max(1, round(p * (1 - overlap)))
+  float overlap = 0.6f;     ///< stride = max(1, round(p * (1 - overlap)))
   bool mean_normalization = true;  ///< subtract patch means (brightness offset cancels)
+  bool propagation = true;  ///< try the neighbouring patches' disparities as starts (as DIS does)
   // Bayesian patch posterior.
   float min_valid_share = 0.25f;   ///< gamma: patches with fewer valid pixels are discarded
   int window_half_width = 2;       ///< n: posterior window has 2n+1 samples
   float window_step = 1.0f;        ///< delta: spacing of window samples, px at the level
-  float sigma_r = 4.0f;            ///< brightness noise, grey levels
-  float contrast_share = 0.0f;     ///< see above; 0 = paper's fixed-noise posterior
+  float sigma_r = 0.5f;            ///< brightness noise, grey levels
+  float contrast_share = 0.3f;     ///< see above; 0 = paper's fixed-noise posterior
   float sigma_s = 4.0f;            ///< spatial Gaussian inside a patch, px at the level
-  float confidence_floor = 0.05f;  ///< pixels whose confidence is lower get no disparity
+  float confidence_floor = 0.015f;  ///< pixels whose confidence is lower get no disparity
+  float lr_check_tolerance = 2.f;  ///< left-right check, full-resolution px; 0 = off
   bool compute_variance = false;   ///< also output per-pixel disparity variance (px^2)
 
   /// Throws std::invalid_argument naming the first bad field and its range.

@@ -104,35 +104,58 @@ void writeDisparityPng(const std::string& path, const cv::Mat& disparity) {
   if (!ok) throw std::runtime_error("cannot write " + path);
 }
 
+cv::Mat readStereoImage(const std::string& path) {
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (!fs::exists(st)) throw std::runtime_error("cannot read " + path + ": no such file");
+  if (fs::is_directory(st)) throw std::runtime_error("cannot read " + path + ": is a directory");
+  cv::Mat img;
+  try {
+    img = cv::imread(path, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    throw std::runtime_error("cannot read " + path + ": " + e.msg);
+  }
+  if (img.empty()) {
+    throw std::runtime_error("cannot read " + path + ": not a readable image (or no permission)");
+  }
+  if (img.depth() == CV_8U && img.channels() == 4) cv::cvtColor(img, img, cv::COLOR_BGRA2BGR);
+  return img;
+}
+
+std::vector<std::string> pairedFileNames(const std::string& dir_a, const std::string& dir_b) {
+  for (const std::string& d : {dir_a, dir_b}) {
+    std::error_code ec;
+    if (!fs::is_directory(d, ec)) throw std::runtime_error(d + " is not a directory");
+  }
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir_a, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code ec2;
+    const std::string name = it->path().filename().string();
+    if (it->is_regular_file(ec2) && fs::is_regular_file(fs::path(dir_b) / name, ec2)) {
+      names.push_back(name);
+    }
+  }
+  if (ec) throw std::runtime_error("cannot list " + dir_a + ": " + ec.message());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
 StereoSequence StereoSequence::open(const std::string& root) {
   StereoSequence seq;
   seq.root = root;
-  const fs::path left_dir = fs::path(root) / "left", right_dir = fs::path(root) / "right";
-  if (!fs::is_directory(left_dir) || !fs::is_directory(right_dir)) {
-    throw std::runtime_error("sequence " + root + " has no left/ and right/ folders");
-  }
-  for (const auto& entry : fs::directory_iterator(left_dir)) {
-    const std::string name = entry.path().filename().string();
-    if (entry.is_regular_file() && fs::exists(right_dir / name)) seq.names.push_back(name);
-  }
-  std::sort(seq.names.begin(), seq.names.end());
+  seq.names = pairedFileNames((fs::path(root) / "left").string(), (fs::path(root) / "right").string());
   if (seq.names.empty()) throw std::runtime_error("sequence " + root + " has no image pairs");
   seq.has_ground_truth = fs::is_directory(fs::path(root) / "gt_disparity");
   return seq;
 }
 
-namespace {
-cv::Mat readImage(const fs::path& path) {
-  cv::Mat img = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
-  if (img.empty()) throw std::runtime_error("cannot read image " + path.string());
-  if (img.depth() != CV_8U) throw std::runtime_error("image " + path.string() + " is not 8-bit");
-  if (img.channels() == 4) cv::cvtColor(img, img, cv::COLOR_BGRA2BGR);
-  return img;
+cv::Mat StereoSequence::left(size_t i) const {
+  return readStereoImage((fs::path(root) / "left" / names.at(i)).string());
 }
-}  // namespace
-
-cv::Mat StereoSequence::left(size_t i) const { return readImage(fs::path(root) / "left" / names.at(i)); }
-cv::Mat StereoSequence::right(size_t i) const { return readImage(fs::path(root) / "right" / names.at(i)); }
+cv::Mat StereoSequence::right(size_t i) const {
+  return readStereoImage((fs::path(root) / "right" / names.at(i)).string());
+}
 cv::Mat StereoSequence::groundTruth(size_t i) const {
   cv::Mat d = readDisparityPng((fs::path(root) / "gt_disparity" / names.at(i)).string());
   cv::max(d, 0.f, d);  // unknown (-1) becomes 0 as in the file

@@ -68,16 +68,22 @@ void validateInputs(const cv::Mat& left, const cv::Mat& right) {
 struct PatchEstimate {
   float disparity = 0.f;  ///< at the level's scale
   float posterior = 0.f;  ///< 0 when discarded
+  /// Posterior above chance: 0 for a flat window (posterior 1/(2n+1)), 1 for a
+  /// single peak. A flat cost must never look confident.
+  float evidence = 0.f;
   float variance = 0.f;   ///< px^2 at the level's scale
 };
 
-struct Matcher::Impl {
-  MatcherParams params;
+/// One direction of the search: the pyramid of a (reference, other) pair and
+/// every buffer of the coarse-to-fine patch search. The matcher runs one with
+/// the left image as reference and, for the left-right check, one on the
+/// mirrored pair (right as reference).
+struct SearchPass {
+  MatcherParams params;  ///< effective settings of the current frame
   detail::StereoPyramid pyramid;
 
   // Per-level state, sized on the first frame of a given size.
   std::vector<cv::Mat1f> init_disparity;  ///< dense coarse-to-fine initialisation per level
-  std::vector<cv::Mat1f> init_confidence;
   cv::Mat1f fused_num, fused_den, conf_sum, cover_count, var_num, var_den;
   cv::Mat1f level_disparity, level_confidence, level_variance;  ///< finest level, floored
   std::vector<int> xs, ys;
@@ -92,10 +98,39 @@ struct Matcher::Impl {
   int sized_window = 0;
 
   void allocate(cv::Size size, int levels);
+  /// Matches levels coarsest..finest; leaves the finest level's floored result
+  /// in level_disparity / level_confidence / level_variance.
+  void run(const cv::Mat& reference, const cv::Mat& other, int levels);
   void matchLevel(int s, bool finest);
-  PatchEstimate searchPatch(const PyramidLevel& L, int x0, int y0, float u_init);
+  // The patch being searched: template, gradient and validity in the scratch
+  // buffers, plus the constant sums the fast path takes from integral images.
+  struct CurrentPatch {
+    const PyramidLevel* level = nullptr;
+    int x0 = 0, y0 = 0;
+    bool left_all_valid = false;
+    float g_sum = 0.f, g_sq_sum = 0.f;
+  } cur;
+  std::vector<uchar> patch_loaded;
+  /// Loads the left patch at (x0, y0); false when too few of its pixels are valid.
+  bool loadPatch(const PyramidLevel& L, int x0, int y0);
+  void patchSums(float u, bool want_cost, ResidualSums& r);
+  /// Mean squared residual at disparity u (mean-normalised if enabled); +inf without pixels.
+  float patchCost(float u, float* valid_count = nullptr);
+  float refinePatch(float u_start);
+  PatchEstimate patchPosterior(float u);
+  bool adoptIfBetter(float candidate, float& u, float& best_cost);
   void fuseLevel(int s, bool finest);
   void upsampleToFull(int s, const cv::Mat& left, MatchResult& out) const;
+};
+
+struct Matcher::Impl {
+  MatcherParams params;
+  SearchPass left_pass;   ///< left image as reference: the result
+  SearchPass right_pass;  ///< mirrored pair, right image as reference: the check
+  cv::Mat mirrored_left, mirrored_right;
+
+  /// Removes left estimates that the right-reference pass does not confirm.
+  void leftRightCheck(float tolerance);
 };
 
 Matcher::Matcher(const MatcherParams& params) : impl_(std::make_unique<Impl>()) {
@@ -112,17 +147,15 @@ void Matcher::setParams(const MatcherParams& params) {
 
 const MatcherParams& Matcher::params() const { return impl_->params; }
 
-void Matcher::Impl::allocate(cv::Size size, int levels) {
+void SearchPass::allocate(cv::Size size, int levels) {
   const int p = params.patch_size;
   const int window = 2 * params.window_half_width + 1;
   if (size == sized_for && levels == sized_levels && p == sized_patch && window == sized_window) {
     return;
   }
   init_disparity.resize(static_cast<size_t>(levels) + 1);
-  init_confidence.resize(static_cast<size_t>(levels) + 1);
   for (int s = 0; s <= levels; ++s) {
     init_disparity[s].create(std::max(1, size.height >> s), std::max(1, size.width >> s));
-    init_confidence[s].create(init_disparity[s].size());
   }
   // Level-sized buffers are allocated at the largest searched level (the finest).
   const cv::Size largest(size.width >> params.finest_level, size.height >> params.finest_level);
@@ -135,6 +168,7 @@ void Matcher::Impl::allocate(cv::Size size, int levels) {
   xs.reserve(static_cast<size_t>(largest.width) + 2);
   ys.reserve(static_cast<size_t>(largest.height) + 2);
   patches.reserve(max_patches);
+  patch_loaded.reserve(max_patches);
   const size_t pp = static_cast<size_t>(p) * p;
   tmpl.resize(pp);
   grad.resize(pp);
@@ -155,113 +189,191 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   validateInputs(left, right);
   Impl& m = *impl_;
   const MatcherParams& P = m.params;
-  const int p = P.patch_size;
 
   // Levels that hold at least one patch; the finest level is clamped alike.
-  const int levels = detail::levelsThatFit(left.cols, left.rows, p, P.coarsest_level + 1);
-  const int coarsest = levels - 1;
-  const int finest = std::min(P.finest_level, coarsest);
+  const int levels = detail::levelsThatFit(left.cols, left.rows, P.patch_size, P.coarsest_level + 1);
+  const int finest = std::min(P.finest_level, levels - 1);
 
-  MatcherParams effective = P;
-  effective.finest_level = finest;
-  std::swap(m.params, effective);
-  m.allocate(left.size(), levels);
-  m.pyramid.build(left, right, levels, finest);
+  m.left_pass.params = P;
+  m.left_pass.params.finest_level = finest;
+  m.left_pass.run(left, right, levels);
+  if (P.lr_check_tolerance > 0.f) {
+    // Mirroring turns "right as reference" into the same left-reference search.
+    cv::flip(right, m.mirrored_left, 1);
+    cv::flip(left, m.mirrored_right, 1);
+    m.right_pass.params = m.left_pass.params;
+    m.right_pass.params.compute_variance = false;
+    m.right_pass.params.confidence_floor = 0.f;  // any fused estimate may confirm
+    m.right_pass.run(m.mirrored_left, m.mirrored_right, levels);
+    m.leftRightCheck(P.lr_check_tolerance / static_cast<float>(1 << finest));
+  }
+  m.left_pass.upsampleToFull(finest, left, result);
+}
+
+void Matcher::Impl::leftRightCheck(float tolerance) {
+  cv::Mat1f& d = left_pass.level_disparity;
+  const cv::Mat1f& mirrored = right_pass.level_disparity;
+  const int w = left_pass.pyramid.level(left_pass.params.finest_level).width;
+  const int h = left_pass.pyramid.level(left_pass.params.finest_level).height;
+  for (int y = 0; y < h; ++y) {
+    float* dl = d[y];
+    const float* dr = mirrored[y];
+    for (int x = 0; x < w; ++x) {
+      if (dl[x] < 0.f) continue;
+      const int xr = static_cast<int>(std::lround(static_cast<float>(x) - dl[x]));
+      const float back = xr >= 0 ? dr[w - 1 - xr] : kNoDisparity;
+      if (back < 0.f || std::fabs(back - dl[x]) > tolerance) {
+        dl[x] = kNoDisparity;
+        left_pass.level_confidence(y, x) = 0.f;
+      }
+    }
+  }
+}
+
+void SearchPass::run(const cv::Mat& reference, const cv::Mat& other, int levels) {
+  const int p = params.patch_size;
+  const int finest = params.finest_level;
+  allocate(reference.size(), levels);
+  pyramid.build(reference, other, levels, finest);
 
   // Spatial Gaussian, once per frame (cheap, p*p) so parameter changes apply.
   const float c = 0.5f * static_cast<float>(p - 1);
-  const float inv2s2 = 1.f / (2.f * P.sigma_s * P.sigma_s);
+  const float inv2s2 = 1.f / (2.f * params.sigma_s * params.sigma_s);
   for (int y = 0; y < p; ++y) {
     for (int x = 0; x < p; ++x) {
       const float dx = static_cast<float>(x) - c, dy = static_cast<float>(y) - c;
-      m.spatial[static_cast<size_t>(y * p + x)] = std::exp(-(dx * dx + dy * dy) * inv2s2);
+      spatial[static_cast<size_t>(y * p + x)] = std::exp(-(dx * dx + dy * dy) * inv2s2);
     }
   }
 
   // Start from zero disparity above the coarsest level.
-  m.init_disparity[levels].setTo(0.f);
-  m.init_confidence[levels].setTo(0.f);
-  for (int s = coarsest; s >= finest; --s) m.matchLevel(s, s == finest);
-  m.upsampleToFull(finest, left, result);
-  std::swap(m.params, effective);
+  init_disparity[levels].setTo(0.f);
+  for (int s = levels - 1; s >= finest; --s) matchLevel(s, s == finest);
 }
 
-void Matcher::Impl::matchLevel(int s, bool finest) {
+void SearchPass::matchLevel(int s, bool finest) {
   const PyramidLevel& L = pyramid.level(s);
   const int p = params.patch_size;
   const int stride = std::max(1, static_cast<int>(std::lround(p * (1.0 - params.overlap))));
   patchAxis(L.width, p, stride, xs);
   patchAxis(L.height, p, stride, ys);
-  patches.resize(xs.size() * ys.size());
+  const int nx = static_cast<int>(xs.size()), ny = static_cast<int>(ys.size());
+  patches.resize(static_cast<size_t>(nx) * static_cast<size_t>(ny));
+  patch_loaded.resize(patches.size());
 
   const cv::Mat1f& coarse = init_disparity[s + 1];
   const float half = 0.5f * static_cast<float>(p - 1);
-  size_t k = 0;
-  for (int y0 : ys) {
-    for (int x0 : xs) {
-      // Coarser level's dense disparity at the patch centre, times 2.
+  // Forward pass (raster order): start from the coarser level's disparity at
+  // the patch centre, times 2, or from the left or upper neighbour's result
+  // when that fits this patch better (spatial propagation, as in DIS).
+  for (int iy = 0; iy < ny; ++iy) {
+    for (int ix = 0; ix < nx; ++ix) {
+      const size_t k = static_cast<size_t>(iy * nx + ix);
+      const int x0 = xs[static_cast<size_t>(ix)], y0 = ys[static_cast<size_t>(iy)];
       const float cx = (static_cast<float>(x0) + half + 0.5f) * 0.5f - 0.5f;
       const float cy = (static_cast<float>(y0) + half + 0.5f) * 0.5f - 0.5f;
-      const int ix = std::clamp(static_cast<int>(std::lround(cx)), 0, coarse.cols - 1);
-      const int iy = std::clamp(static_cast<int>(std::lround(cy)), 0, coarse.rows - 1);
-      patches[k++] = searchPatch(L, x0, y0, 2.f * coarse(iy, ix));
+      const int ccx = std::clamp(static_cast<int>(std::lround(cx)), 0, coarse.cols - 1);
+      const int ccy = std::clamp(static_cast<int>(std::lround(cy)), 0, coarse.rows - 1);
+      float u = 2.f * coarse(ccy, ccx);
+      patches[k] = PatchEstimate{u, 0.f, 0.f};
+      patch_loaded[k] = loadPatch(L, x0, y0);
+      if (!patch_loaded[k]) continue;
+      if (params.propagation) {
+        float best = patchCost(u);
+        if (ix > 0 && patch_loaded[k - 1]) adoptIfBetter(patches[k - 1].disparity, u, best);
+        if (iy > 0 && patch_loaded[k - static_cast<size_t>(nx)]) {
+          adoptIfBetter(patches[k - static_cast<size_t>(nx)].disparity, u, best);
+        }
+      }
+      patches[k].disparity = refinePatch(u);
+    }
+  }
+  // Backward pass: the right and lower neighbours get their say, then the
+  // patch's posterior is taken at its final disparity.
+  for (int iy = ny - 1; iy >= 0; --iy) {
+    for (int ix = nx - 1; ix >= 0; --ix) {
+      const size_t k = static_cast<size_t>(iy * nx + ix);
+      if (!patch_loaded[k]) continue;
+      loadPatch(L, xs[static_cast<size_t>(ix)], ys[static_cast<size_t>(iy)]);
+      float u = patches[k].disparity;
+      if (params.propagation) {
+        float best = patchCost(u);
+        bool moved = false;
+        if (ix + 1 < nx && patch_loaded[k + 1]) moved |= adoptIfBetter(patches[k + 1].disparity, u, best);
+        if (iy + 1 < ny && patch_loaded[k + static_cast<size_t>(nx)]) {
+          moved |= adoptIfBetter(patches[k + static_cast<size_t>(nx)].disparity, u, best);
+        }
+        if (moved) u = refinePatch(u);
+      }
+      patches[k] = patchPosterior(u);
     }
   }
   fuseLevel(s, finest);
 }
 
-PatchEstimate Matcher::Impl::searchPatch(const PyramidLevel& L, int x0, int y0, float u_init) {
+bool SearchPass::adoptIfBetter(float candidate, float& u, float& best_cost) {
+  if (std::fabs(candidate - u) < 1e-3f) return false;
+  const float c = patchCost(candidate);
+  if (!(c < best_cost)) return false;
+  u = candidate;
+  best_cost = c;
+  return true;
+}
+
+bool SearchPass::loadPatch(const PyramidLevel& L, int x0, int y0) {
   const int p = params.patch_size;
   const int pp = p * p;
-  PatchEstimate est;
-  est.disparity = u_init;
-
-  // Template, gradient and validity of the left patch.
   const int left_invalid = rectSum(L.left_invalid, x0, y0, x0 + p, y0 + p);
   if (static_cast<float>(pp - left_invalid) < params.min_valid_share * static_cast<float>(pp)) {
-    return est;  // mostly outside the rectified view
+    return false;  // mostly outside the rectified view
   }
   for (int y = 0; y < p; ++y) {
     std::copy_n(L.left[y0 + y] + x0, p, tmpl.data() + y * p);
     std::copy_n(L.left_gx[y0 + y] + x0, p, grad.data() + y * p);
     std::copy_n(L.left_valid[y0 + y] + x0, p, tmpl_valid.data() + y * p);
   }
-  const bool left_all_valid = left_invalid == 0;
-  const float g_all = static_cast<float>(rectSum(L.gx_sum, x0, y0, x0 + p, y0 + p));
-  const float gg_all = static_cast<float>(rectSum(L.gx_sq_sum, x0, y0, x0 + p, y0 + p));
-  const bool normalise = params.mean_normalization;
+  cur = {&L, x0, y0, left_invalid == 0,
+         static_cast<float>(rectSum(L.gx_sum, x0, y0, x0 + p, y0 + p)),
+         static_cast<float>(rectSum(L.gx_sq_sum, x0, y0, x0 + p, y0 + p))};
+  return true;
+}
 
-  // Sums at disparity u, through the fast path when nothing invalid is near.
-  auto sums = [&](float u, bool want_cost, ResidualSums& r) {
-    const SampleSpan span = detail::sampleSpan(x0, u);
-    const bool fast = left_all_valid && span.base >= 0 && span.base + p < L.width &&
-                      rectSum(L.right_invalid, span.base, y0, span.base + p + 1, y0 + p) == 0;
-    if (fast) {
-      detail::sumsAllValid(L.right, y0, p, span, tmpl.data(), grad.data(), want_cost,
-                           row_buf.data(), r);
-      r.g = g_all;
-      r.g_sq = gg_all;
-    } else {
-      detail::sumsMasked(L.right, L.right_valid, y0, p, span, tmpl.data(), grad.data(),
-                         tmpl_valid.data(), r);
-    }
-  };
-  // Mean squared residual (mean-normalised if enabled); +inf without pixels.
-  auto cost = [&](const ResidualSums& r) {
-    if (r.count <= 0.f) return std::numeric_limits<float>::infinity();
-    const float mean = r.diff / r.count;
-    return r.diff_sq / r.count - (normalise ? mean * mean : 0.f);
-  };
+void SearchPass::patchSums(float u, bool want_cost, ResidualSums& r) {
+  const PyramidLevel& L = *cur.level;
+  const int p = params.patch_size;
+  const SampleSpan span = detail::sampleSpan(cur.x0, u);
+  const bool fast = cur.left_all_valid && span.base >= 0 && span.base + p < L.width &&
+                    rectSum(L.right_invalid, span.base, cur.y0, span.base + p + 1, cur.y0 + p) == 0;
+  if (fast) {
+    detail::sumsAllValid(L.right, cur.y0, p, span, tmpl.data(), grad.data(), want_cost,
+                         row_buf.data(), r);
+    r.g = cur.g_sum;
+    r.g_sq = cur.g_sq_sum;
+  } else {
+    detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, tmpl.data(), grad.data(),
+                       tmpl_valid.data(), r);
+  }
+}
 
+float SearchPass::patchCost(float u, float* valid_count) {
+  ResidualSums r;
+  patchSums(u, true, r);
+  if (valid_count) *valid_count = r.count;
+  if (r.count <= 0.f) return std::numeric_limits<float>::infinity();
+  const float mean = r.diff / r.count;
+  return r.diff_sq / r.count - (params.mean_normalization ? mean * mean : 0.f);
+}
+
+float SearchPass::refinePatch(float u_start) {
   // Inverse-compositional Gauss-Newton along x, d >= 0.
-  const float max_u = static_cast<float>(L.width);
-  float u = u_init;
+  const float max_u = static_cast<float>(cur.level->width);
+  float u = u_start;
   ResidualSums r;
   for (int it = 0; it < params.iterations; ++it) {
-    sums(u, false, r);
+    patchSums(u, false, r);
     if (r.count <= 0.f) break;
     float b = r.g_diff, H = r.g_sq;
-    if (normalise) {
+    if (params.mean_normalization) {
       b -= r.diff * r.g / r.count;
       H -= r.g * r.g / r.count;
     }
@@ -271,17 +383,21 @@ PatchEstimate Matcher::Impl::searchPatch(const PyramidLevel& L, int x0, int y0, 
     if (std::fabs(step) < 1e-3f) break;
   }
   // Outlier guard: wandered more than a patch from its start.
-  if (std::fabs(u - u_init) > static_cast<float>(p)) u = u_init;
-  est.disparity = u;
+  if (std::fabs(u - u_start) > static_cast<float>(params.patch_size)) u = u_start;
+  return u;
+}
 
+PatchEstimate SearchPass::patchPosterior(float u) {
+  const int pp = params.patch_size * params.patch_size;
+  PatchEstimate est;
+  est.disparity = u;
   // Posterior over the window u + k*delta, k = -n..n.
   const int n = params.window_half_width;
   const float delta = params.window_step;
   float valid_at_optimum = 0.f;
   for (int j = -n; j <= n; ++j) {
-    sums(u + static_cast<float>(j) * delta, true, r);
-    costs[static_cast<size_t>(j + n)] = cost(r);
-    if (j == 0) valid_at_optimum = r.count;
+    costs[static_cast<size_t>(j + n)] =
+        patchCost(u + static_cast<float>(j) * delta, j == 0 ? &valid_at_optimum : nullptr);
   }
   if (valid_at_optimum < params.min_valid_share * static_cast<float>(pp)) return est;
   const float e0 = costs[static_cast<size_t>(n)];
@@ -300,6 +416,8 @@ PatchEstimate Matcher::Impl::searchPatch(const PyramidLevel& L, int x0, int y0, 
     sum += likelihood[static_cast<size_t>(j)];
   }
   est.posterior = 1.f / sum;  // likelihood at the optimum is exp(0) = 1
+  const float chance = 1.f / static_cast<float>(2 * n + 1);
+  est.evidence = std::max(0.f, (est.posterior - chance) / (1.f - chance));
 
   if (params.compute_variance) {
     // Zero-mean Gaussian with free scale through the window posteriors:
@@ -320,7 +438,7 @@ PatchEstimate Matcher::Impl::searchPatch(const PyramidLevel& L, int x0, int y0, 
   return est;
 }
 
-void Matcher::Impl::fuseLevel(int s, bool finest) {
+void SearchPass::fuseLevel(int s, bool finest) {
   const PyramidLevel& L = pyramid.level(s);
   const int p = params.patch_size;
   const cv::Rect roi(0, 0, L.width, L.height);
@@ -347,7 +465,7 @@ void Matcher::Impl::fuseLevel(int s, bool finest) {
           const float w = e.posterior * g[x];
           nr[x] += w * e.disparity;
           dr[x] += w;
-          cr[x] += e.posterior;
+          cr[x] += e.evidence;
         }
         if (variance) {
           float* vn = vnum[y0 + y] + x0;
@@ -365,14 +483,12 @@ void Matcher::Impl::fuseLevel(int s, bool finest) {
   // Dense initialisation for the next finer level: the fused value where any
   // patch survived, otherwise this level's own initialisation.
   cv::Mat1f& init = init_disparity[s];
-  cv::Mat1f& init_conf = init_confidence[s];
   const cv::Mat1f& coarse = init_disparity[s + 1];
   for (int y = 0; y < L.height; ++y) {
     const int cy = std::min(y / 2, coarse.rows - 1);
     for (int x = 0; x < L.width; ++x) {
       const float d = den(y, x);
       const float conf = cover(y, x) > 0.f ? csum(y, x) / cover(y, x) : 0.f;
-      init_conf(y, x) = conf;
       init(y, x) = d > 0.f ? num(y, x) / d : 2.f * coarse(cy, std::min(x / 2, coarse.cols - 1));
       if (finest) {
         const bool keep = d > 0.f && conf >= params.confidence_floor;
@@ -384,7 +500,7 @@ void Matcher::Impl::fuseLevel(int s, bool finest) {
   }
 }
 
-void Matcher::Impl::upsampleToFull(int s, const cv::Mat& left, MatchResult& out) const {
+void SearchPass::upsampleToFull(int s, const cv::Mat& left, MatchResult& out) const {
   const int W = left.cols, H = left.rows;
   const PyramidLevel& L = pyramid.level(s);
   const bool variance = params.compute_variance;

@@ -1,6 +1,7 @@
 #include "bdis_stereo/params.hpp"
 
 #include <cmath>
+#include <fstream>
 #include <sstream>
 #include <stdexcept>
 
@@ -51,6 +52,8 @@ const std::vector<ParamField>& paramFields() {
             "patch overlap; stride = max(1, round(p * (1 - overlap)))"),
       field("mean_normalization", &MatcherParams::mean_normalization, 0, 1,
             "subtract patch means so a brightness offset between cameras cancels"),
+      field("propagation", &MatcherParams::propagation, 0, 1,
+            "start each patch from its neighbour's disparity when that fits better (DIS's spatial propagation)"),
       field("min_valid_share", &MatcherParams::min_valid_share, 0.0, 1.0,
             "gamma: minimum share of valid (non-black) pixels in a patch"),
       field("window_half_width", &MatcherParams::window_half_width, 1, 10,
@@ -65,6 +68,9 @@ const std::vector<ParamField>& paramFields() {
             "spatial Gaussian inside a patch, px at the level"),
       field("confidence_floor", &MatcherParams::confidence_floor, 0.0, 1.0,
             "pixels with lower confidence get no disparity"),
+      field("lr_check_tolerance", &MatcherParams::lr_check_tolerance, 0.0, 100.0,
+            "drop pixels whose match, searched back from the right image, lands farther than this "
+            "(full-resolution px); 0 = off"),
       field("compute_variance", &MatcherParams::compute_variance, 0, 1,
             "also compute the per-pixel disparity variance (px^2)"),
   };
@@ -99,17 +105,17 @@ void MatcherParams::validate() const {
 std::vector<std::string> MatcherParams::presetNames() { return {"fast", "balanced", "accurate"}; }
 
 MatcherParams MatcherParams::preset(const std::string& name) {
-  MatcherParams p;  // balanced: the defaults
+  MatcherParams p;  // balanced: the defaults (stride 3 at patch 8)
   if (name == "balanced") return p;
   if (name == "fast") {
-    p.iterations = 8;
-    p.overlap = 0.3f;
+    // Stride 5: about half the patches of balanced, a little less density.
+    p.overlap = 0.4f;
     return p;
   }
   if (name == "accurate") {
+    // Stride 2 and more iterations: about twice the time of balanced.
+    p.overlap = 0.7f;
     p.iterations = 16;
-    p.overlap = 0.6f;
-    p.window_step = 0.5f;
     return p;
   }
   throw std::invalid_argument("unknown preset '" + name +
@@ -117,13 +123,24 @@ MatcherParams MatcherParams::preset(const std::string& name) {
 }
 
 MatcherParams loadParams(const std::string& path, const MatcherParams& base) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument("cannot open parameter file " + path);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string content = text.str();
+  // OpenCV's YAML reader wants its own "%YAML:1.0" header; ordinary ROS-style
+  // YAML files have none, so add it (JSON files start with '{').
+  const size_t first = content.find_first_not_of(" \t\r\n");
+  if (first != std::string::npos && content[first] != '{' && content.compare(0, 5, "%YAML") != 0) {
+    content = "%YAML:1.0\n" + content;
+  }
   cv::FileStorage fs;
   try {
-    fs.open(path, cv::FileStorage::READ | cv::FileStorage::FORMAT_AUTO);
+    fs.open(content, cv::FileStorage::READ | cv::FileStorage::MEMORY);
   } catch (const cv::Exception& e) {
-    throw std::invalid_argument("cannot parse parameter file " + path + ": " + e.what());
+    throw std::invalid_argument("cannot parse parameter file " + path + ": " + e.msg);
   }
-  if (!fs.isOpened()) throw std::invalid_argument("cannot open parameter file " + path);
+  if (!fs.isOpened()) throw std::invalid_argument("cannot parse parameter file " + path);
   MatcherParams p = base;
   const cv::FileNode root = fs.root();
   if (!root.isMap()) {

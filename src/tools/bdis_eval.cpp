@@ -2,6 +2,7 @@
 // defines, for this matcher and, in the same run on the same frames, for
 // OpenCV's DIS (fast, medium) and SGBM, so every report carries its baselines.
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -11,6 +12,7 @@
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
@@ -36,21 +38,26 @@ options:
   --methods LIST       comma-separated subset of bdis,dis_fast,dis_medium,sgbm (default: all)
   --frames N           use at most N frames per sequence
   --json FILE          also write the results as JSON
+  --dump-dir DIR       write every disparity as DIR/<sequence>/<method>/<frame>.png (16-bit, d*256)
 )";
 
-/// A disparity method under test: fills CV_32FC1 disparity, negative = none.
+/// A disparity method under test: fills CV_32FC1 disparity, negative = none,
+/// and its confidence in [0, 1] where the method has one (else leaves it empty).
 struct Method {
   std::string name;
   std::function<void(const cv::Mat& left, const cv::Mat& right, cv::Mat& disparity)> run;
+  std::function<cv::Mat()> confidence = [] { return cv::Mat(); };
 };
 
 Method makeBdis(const MatcherParams& params) {
   auto matcher = std::make_shared<Matcher>(params);
   auto result = std::make_shared<MatchResult>();
-  return {"bdis", [matcher, result](const cv::Mat& l, const cv::Mat& r, cv::Mat& d) {
+  return {"bdis",
+          [matcher, result](const cv::Mat& l, const cv::Mat& r, cv::Mat& d) {
             matcher->compute(l, r, *result);
             d = result->disparity;
-          }};
+          },
+          [result] { return result->confidence; }};
 }
 
 // OpenCV DIS optical flow from left to right; disparity = -flow_x, negative
@@ -107,7 +114,7 @@ std::vector<std::string> split(const std::string& s, char sep) {
 
 int run(int argc, char** argv) {
   std::vector<std::string> sequences;
-  std::string preset = "balanced", params_file, json_path;
+  std::string preset = "balanced", params_file, json_path, dump_dir;
   std::vector<std::string> overrides;
   std::vector<std::string> method_names = {"bdis", "dis_fast", "dis_medium", "sgbm"};
   size_t max_frames = 0;
@@ -130,6 +137,8 @@ int run(int argc, char** argv) {
       method_names = split(value(), ',');
     } else if (a == "--frames") {
       max_frames = static_cast<size_t>(std::stoul(value()));
+    } else if (a == "--dump-dir") {
+      dump_dir = value();
     } else if (a == "--json") {
       json_path = value();
     } else if (!a.empty() && a[0] == '-') {
@@ -170,6 +179,18 @@ int run(int argc, char** argv) {
         methods[m].run(left, right, disparity);
         times[m].push_back(nowMs() - t0);
         seq_rows[m].score.add(scoreDisparity(disparity, gt, left));
+        if (!dump_dir.empty()) {
+          const std::filesystem::path dir =
+              std::filesystem::path(dump_dir) / std::filesystem::path(root).filename() / methods[m].name;
+          std::filesystem::create_directories(dir);
+          writeDisparityPng((dir / seq.names[f]).string(), disparity);
+          const cv::Mat conf = methods[m].confidence();
+          if (!conf.empty()) {
+            cv::Mat conf16;
+            conf.convertTo(conf16, CV_16UC1, 65535.0);
+            cv::imwrite((dir / ("conf_" + seq.names[f])).string(), conf16);
+          }
+        }
       }
       bar.update(f + 1);
     }

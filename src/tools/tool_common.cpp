@@ -1,21 +1,38 @@
 #include "tool_common.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <iostream>
+#include <system_error>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 namespace bdis {
 namespace tools {
+
+namespace {
+// Messages end in exactly one newline, even when they wrap an OpenCV
+// exception text that carries its own.
+std::string trimTrailing(std::string s) {
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
+  return s;
+}
+}  // namespace
 
 int runGuarded(const char* tool, const std::function<int()>& body) {
   try {
     return body();
   } catch (const UsageError& e) {
-    std::cerr << tool << ": " << e.what() << "\n(see " << tool << " --help)\n";
+    std::cerr << tool << ": " << trimTrailing(e.what()) << "\n(see " << tool << " --help)\n";
     return 2;
   } catch (const std::exception& e) {
-    std::cerr << tool << ": error: " << e.what() << "\n";
+    std::cerr << tool << ": error: " << trimTrailing(e.what()) << "\n";
     return 1;
   } catch (...) {
     std::cerr << tool << ": error: unknown exception\n";
@@ -66,16 +83,68 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+namespace fs = std::filesystem;
+
+void checkWritableFile(const std::string& path) {
+  if (path.empty()) throw std::runtime_error("empty output path");
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    throw std::runtime_error("cannot write " + path + ": is a directory");
+  }
+  fs::path dir = fs::path(path).parent_path();
+  if (dir.empty()) dir = ".";
+  if (!fs::exists(dir, ec)) {
+    throw std::runtime_error("cannot write " + path + ": directory " + dir.string() +
+                             " does not exist");
+  }
+  if (!fs::is_directory(dir, ec)) {
+    throw std::runtime_error("cannot write " + path + ": " + dir.string() + " is not a directory");
+  }
+  if (::access(dir.c_str(), W_OK | X_OK) != 0) {
+    throw std::runtime_error("cannot write " + path + ": directory " + dir.string() +
+                             " is not writable");
+  }
+}
+
+void ensureWritableDir(const std::string& dir) {
+  if (dir.empty()) throw std::runtime_error("empty output directory");
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (!fs::is_directory(dir)) {
+    throw std::runtime_error("cannot create output directory " + dir +
+                             (ec ? ": " + ec.message() : std::string()));
+  }
+  if (::access(dir.c_str(), W_OK | X_OK) != 0) {
+    throw std::runtime_error("output directory " + dir + " is not writable");
+  }
+}
+
+bool hasPngExtension(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext == ".png";
+}
+
 ProgressBar::ProgressBar(size_t total, std::string label) : total_(total), label_(std::move(label)) {
   update(0);
 }
 
 void ProgressBar::update(size_t done) {
+  done_ = done;
   constexpr int kWidth = 30;
   const double frac = total_ ? static_cast<double>(done) / static_cast<double>(total_) : 1.0;
   const int filled = static_cast<int>(frac * kWidth);
   std::fprintf(stderr, "\r%s [%s%s] %zu/%zu", label_.c_str(), std::string(filled, '#').c_str(),
                std::string(kWidth - filled, '.').c_str(), done, total_);
+  std::fflush(stderr);
+}
+
+void ProgressBar::message(const std::string& line) {
+  // Blank the bar's line, print the message in its place, redraw below.
+  const size_t width = label_.size() + 60;
+  std::fprintf(stderr, "\r%s\r%s\n", std::string(width, ' ').c_str(), trimTrailing(line).c_str());
+  if (!finished_) update(done_);
   std::fflush(stderr);
 }
 

@@ -8,6 +8,9 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/core.hpp>
+
+#include "bdis_stereo/evaluation.hpp"  // readStereoImage, pairedFileNames
 #include "bdis_stereo/params.hpp"
 
 namespace bdis {
@@ -36,15 +39,29 @@ inline double nowMs() {
 
 double median(std::vector<double> values);
 
+/// Throws std::runtime_error unless a file can be created at `path`: its
+/// directory must exist and be writable and `path` must not be a directory.
+void checkWritableFile(const std::string& path);
+
+/// Creates `dir` (and parents) if needed; throws std::runtime_error unless it
+/// then is a writable directory.
+void ensureWritableDir(const std::string& dir);
+
+/// True when `path` ends in ".png" (any case).
+bool hasPngExtension(const std::string& path);
+
 /// A one-line progress bar on stderr, redrawn in place.
 class ProgressBar {
  public:
   ProgressBar(size_t total, std::string label);
   void update(size_t done);
+  /// Prints `line` on its own line on stderr, then redraws the bar.
+  void message(const std::string& line);
   void finish();
 
  private:
   size_t total_;
+  size_t done_ = 0;
   std::string label_;
   bool finished_ = false;
 };

@@ -1,1 +1,419 @@
+// MatcherParams: presets, the field table, validation, loadParams and toYaml.
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "bdis_stereo/matcher.hpp"
+#include "bdis_stereo/params.hpp"
+#include "test_images.hpp"
+
+namespace {
+
+using bdis::findParamField;
+using bdis::loadParams;
+using bdis::MatcherParams;
+using bdis::ParamField;
+using bdis::paramFields;
+using bdis::toYaml;
+using bdis_test::contains;
+using bdis_test::invalidArgumentMessage;
+using bdis_test::TempPath;
+
+// OpenCV's FileStorage (behind loadParams) only recognises YAML that starts
+// with this directive; see DISABLED_LoadParamsReadsPlainYaml below.
+const std::string kYamlDirective = "%YAML:1.0\n";
+
+void expectSameParams(const MatcherParams& a, const MatcherParams& b) {
+  for (const ParamField& f : paramFields()) {
+    EXPECT_EQ(f.get(a), f.get(b)) << "field " << f.name;
+  }
+}
+
+bool sameParams(const MatcherParams& a, const MatcherParams& b) {
+  for (const ParamField& f : paramFields()) {
+    if (f.get(a) != f.get(b)) return false;
+  }
+  return true;
+}
+
+/// Parameters whose coarsest/finest levels leave room to set either level to
+/// any value of its range alone.
+MatcherParams levelsWide() {
+  MatcherParams p;
+  p.coarsest_level = static_cast<int>(findParamField("coarsest_level")->max_value);
+  p.finest_level = static_cast<int>(findParamField("finest_level")->min_value);
+  return p;
+}
+
+// ---------------------------------------------------------------------------
+// Presets
+// ---------------------------------------------------------------------------
+
+TEST(ParamsPresets, NamesAreFastBalancedAccurate) {
+  const std::vector<std::string> names = MatcherParams::presetNames();
+  const std::set<std::string> unique(names.begin(), names.end());
+  EXPECT_EQ(unique.size(), names.size()) << "duplicate preset names";
+  for (const char* expected : {"fast", "balanced", "accurate"}) {
+    EXPECT_EQ(unique.count(expected), 1u) << expected;
+  }
+}
+
+TEST(ParamsPresets, EveryPresetValidatesAndBuildsAMatcher) {
+  for (const std::string& name : MatcherParams::presetNames()) {
+    SCOPED_TRACE(name);
+    const MatcherParams p = MatcherParams::preset(name);
+    EXPECT_NO_THROW(p.validate());
+    EXPECT_NO_THROW(bdis::Matcher{p});
+  }
+}
+
+TEST(ParamsPresets, BalancedEqualsDefault) {
+  expectSameParams(MatcherParams::preset("balanced"), MatcherParams{});
+}
+
+TEST(ParamsPresets, PresetsDifferFromEachOther) {
+  const std::vector<std::string> names = MatcherParams::presetNames();
+  for (size_t i = 0; i < names.size(); ++i) {
+    for (size_t j = i + 1; j < names.size(); ++j) {
+      EXPECT_FALSE(sameParams(MatcherParams::preset(names[i]), MatcherParams::preset(names[j])))
+          << names[i] << " and " << names[j] << " are the same settings";
+    }
+  }
+}
+
+TEST(ParamsPresets, UnknownPresetThrowsNamingIt) {
+  for (const std::string bad : {"turbo", "", "balanced "}) {
+    const std::string msg = invalidArgumentMessage([&] { MatcherParams::preset(bad); });
+    EXPECT_TRUE(contains(msg, "'" + bad + "'")) << msg;
+    EXPECT_TRUE(contains(msg, "fast")) << "should list the valid names: " << msg;
+  }
+}
+
+// ---------------------------------------------------------------------------
+// Field table
+// ---------------------------------------------------------------------------
+
+TEST(ParamsFields, DescribeEveryFieldOnceWithWorkingAccessors) {
+  const std::vector<ParamField>& fields = paramFields();
+  ASSERT_FALSE(fields.empty());
+  std::set<std::string> names;
+  const MatcherParams defaults;
+  for (const ParamField& f : fields) {
+    SCOPED_TRACE(f.name);
+    EXPECT_TRUE(names.insert(f.name).second) << "duplicate field";
+    EXPECT_EQ(findParamField(f.name), &f);
+    EXPECT_LT(f.min_value, f.max_value);
+    ASSERT_NE(f.description, nullptr);
+    EXPECT_GT(std::string(f.description).size(), 5u);
+    // The default lies inside the range.
+    EXPECT_GE(f.get(defaults), f.min_value);
+    EXPECT_LE(f.get(defaults), f.max_value);
+    // set() then get() returns the value, and touches no other field.
+    MatcherParams p;
+    const double v = f.type == ParamField::Type::Bool ? (f.get(p) != 0 ? 0.0 : 1.0)
+                     : f.type == ParamField::Type::Int
+                         ? std::floor(0.5 * (f.min_value + f.max_value))
+                         : 0.5 * (f.min_value + f.max_value);
+    f.set(p, v);
+    EXPECT_FLOAT_EQ(f.get(p), v);
+    for (const ParamField& other : fields) {
+      if (&other != &f) {
+        EXPECT_EQ(other.get(p), other.get(defaults)) << "set touched " << other.name;
+      }
+    }
+    if (f.type == ParamField::Type::Bool) {
+      EXPECT_EQ(f.min_value, 0.0);
+      EXPECT_EQ(f.max_value, 1.0);
+    }
+  }
+  EXPECT_EQ(findParamField("no_such_field"), nullptr);
+  EXPECT_EQ(findParamField(""), nullptr);
+  // A few fields the rest of the project relies on by name.
+  for (const char* name : {"coarsest_level", "finest_level", "patch_size", "overlap",
+                           "mean_normalization", "confidence_floor", "compute_variance"}) {
+    EXPECT_NE(findParamField(name), nullptr) << name;
+  }
+}
+
+// ---------------------------------------------------------------------------
+// Validation
+// ---------------------------------------------------------------------------
+
+TEST(ParamsValidation, DefaultsValidate) { EXPECT_NO_THROW(MatcherParams{}.validate()); }
+
+TEST(ParamsValidation, RangeLimitsThemselvesAreAccepted) {
+  // Also catches a limit that cannot be represented once cast to the field's
+  // type (e.g. a float min of 0.7 stored as 0.69999999).
+  for (const ParamField& f : paramFields()) {
+    for (double v : {f.min_value, f.max_value}) {
+      SCOPED_TRACE(std::string(f.name) + " = " + std::to_string(v));
+      MatcherParams p = levelsWide();
+      f.set(p, v);
+      EXPECT_NO_THROW(p.validate());
+    }
+  }
+}
+
+TEST(ParamsValidation, EveryFieldRejectsOutOfRangeValuesNamingTheField) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  int checked_fields = 0;
+  for (const ParamField& f : paramFields()) {
+    // A bool cannot hold an out-of-range value: set() converts any number.
+    if (f.type == ParamField::Type::Bool) continue;
+    ++checked_fields;
+    std::vector<double> bad = {f.min_value - 1, f.max_value + 1};
+    if (f.type == ParamField::Type::Float) {
+      // Just outside, and non-finite (NaN is not converted to int: that is UB).
+      bad.insert(bad.end(), {f.min_value - 1e-3, f.max_value + 1e-3, nan, inf, -inf});
+    }
+    for (double v : bad) {
+      SCOPED_TRACE(std::string(f.name) + " = " + std::to_string(v));
+      MatcherParams p = levelsWide();
+      f.set(p, v);
+      const std::string msg = invalidArgumentMessage([&] { p.validate(); });
+      EXPECT_TRUE(contains(msg, std::string("parameter ") + f.name + " ")) << msg;
+      // The constructor and setParams validate alike.
+      EXPECT_TRUE(contains(invalidArgumentMessage([&] { bdis::Matcher m(p); }), f.name));
+      bdis::Matcher m;
+      EXPECT_TRUE(contains(invalidArgumentMessage([&] { m.setParams(p); }), f.name));
+    }
+  }
+  EXPECT_GE(checked_fields, 10);
+}
+
+TEST(ParamsValidation, FinestLevelCoarserThanCoarsestIsRejected) {
+  MatcherParams p;
+  p.coarsest_level = 2;
+  p.finest_level = 3;
+  const std::string msg = invalidArgumentMessage([&] { p.validate(); });
+  EXPECT_TRUE(contains(msg, "finest_level")) << msg;
+  EXPECT_TRUE(contains(msg, "coarsest_level")) << msg;
+  p.finest_level = 2;  // equal is fine: a single level
+  EXPECT_NO_THROW(p.validate());
+}
+
+TEST(ParamsValidation, SetParamsRejectsInvalidAndKeepsThePreviousParams) {
+  MatcherParams good = MatcherParams::preset("accurate");
+  bdis::Matcher m(good);
+  MatcherParams bad = good;
+  bad.patch_size = 0;
+  EXPECT_THROW(m.setParams(bad), std::invalid_argument);
+  expectSameParams(m.params(), good);
+}
+
+// ---------------------------------------------------------------------------
+// loadParams
+// ---------------------------------------------------------------------------
+
+TEST(ParamsLoad, ReadsPresetAndOverrides) {
+  TempPath file(".yaml");
+  file.write(kYamlDirective +
+             "preset: fast\n"
+             "iterations: 20\n"
+             "mean_normalization: false\n"
+             "compute_variance: true\n"
+             "sigma_r: 2.5\n");
+  const MatcherParams p = loadParams(file.str());
+  MatcherParams expected = MatcherParams::preset("fast");
+  expected.iterations = 20;
+  expected.mean_normalization = false;
+  expected.compute_variance = true;
+  expected.sigma_r = 2.5f;
+  expectSameParams(p, expected);
+}
+
+TEST(ParamsLoad, PresetAppliesFirstWhereverItIsInTheFile) {
+  TempPath file(".yaml");
+  file.write(kYamlDirective + "iterations: 20\npreset: accurate\n");
+  MatcherParams expected = MatcherParams::preset("accurate");
+  expected.iterations = 20;
+  expectSameParams(loadParams(file.str()), expected);
+}
+
+TEST(ParamsLoad, KeysNotInTheFileKeepTheBase) {
+  MatcherParams base;
+  base.patch_size = 12;
+  base.sigma_s = 3.f;
+  TempPath file(".yaml");
+  file.write(kYamlDirective + "overlap: 0.5\n");
+  MatcherParams expected = base;
+  expected.overlap = 0.5f;
+  expectSameParams(loadParams(file.str(), base), expected);
+}
+
+TEST(ParamsLoad, ReadsJson) {
+  TempPath file(".json");
+  file.write(R"({"preset": "accurate", "iterations": 3, "mean_normalization": false, "overlap": 0.5})");
+  MatcherParams expected = MatcherParams::preset("accurate");
+  expected.iterations = 3;
+  expected.mean_normalization = false;
+  expected.overlap = 0.5f;
+  expectSameParams(loadParams(file.str()), expected);
+}
+
+TEST(ParamsLoad, RejectsUnknownKeyNamingKeyAndFile) {
+  TempPath file(".yaml");
+  file.write(kYamlDirective + "iterations: 5\nnot_a_param: 3\n");
+  const std::string msg = invalidArgumentMessage([&] { loadParams(file.str()); });
+  EXPECT_TRUE(contains(msg, "not_a_param")) << msg;
+  EXPECT_TRUE(contains(msg, file.str())) << msg;
+}
+
+TEST(ParamsLoad, RejectsOutOfRangeValuesNamingTheKey) {
+  for (const ParamField& f : paramFields()) {
+    std::vector<std::string> values;
+    std::ostringstream lo, hi;
+    lo << f.min_value - 1;
+    hi << f.max_value + 1;
+    values = {lo.str(), hi.str()};
+    if (f.type == ParamField::Type::Float) values.push_back(".nan");
+    for (const std::string& v : values) {
+      SCOPED_TRACE(std::string(f.name) + ": " + v);
+      TempPath file(".yaml");
+      file.write(kYamlDirective + f.name + ": " + v + "\n");
+      const std::string msg = invalidArgumentMessage([&] { loadParams(file.str()); });
+      EXPECT_TRUE(contains(msg, f.name)) << msg;
+    }
+  }
+}
+
+TEST(ParamsLoad, RejectsWrongTypesAndBadFilesSayingWhy) {
+  struct Case {
+    std::string body;
+    std::vector<std::string> expected;
+  };
+  const std::vector<Case> cases = {
+      {"iterations: 2.5\n", {"iterations", "whole number"}},
+      {"iterations: abc\n", {"iterations", "number"}},
+      {"iterations: [1, 2]\n", {"iterations", "number"}},
+      {"mean_normalization: maybe\n", {"mean_normalization", "maybe"}},
+      {"preset: turbo\n", {"turbo"}},
+      {"preset: 3\n", {"preset"}},
+      {"finest_level: 4\ncoarsest_level: 3\n", {"finest_level", "coarsest_level"}},
+      {"- 1\n- 2\n", {"map"}},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.body);
+    TempPath file(".yaml");
+    file.write(kYamlDirective + c.body);
+    const std::string msg = invalidArgumentMessage([&] { loadParams(file.str()); });
+    for (const std::string& s : c.expected) EXPECT_TRUE(contains(msg, s)) << msg;
+  }
+  TempPath missing(".yaml");
+  const std::string msg = invalidArgumentMessage([&] { loadParams(missing.str()); });
+  EXPECT_TRUE(contains(msg, missing.str())) << msg;
+}
+
+TEST(ParamsLoad, AcceptsBooleansAsWordsAndNumbers) {
+  TempPath file(".yaml");
+  file.write(kYamlDirective + "mean_normalization: False\ncompute_variance: 1\n");
+  const MatcherParams p = loadParams(file.str());
+  EXPECT_FALSE(p.mean_normalization);
+  EXPECT_TRUE(p.compute_variance);
+  file.write(kYamlDirective + "mean_normalization: 2\n");
+  EXPECT_TRUE(contains(invalidArgumentMessage([&] { loadParams(file.str()); }), "mean_normalization"));
+}
+
+// ---------------------------------------------------------------------------
+// toYaml
+// ---------------------------------------------------------------------------
+
+TEST(ParamsToYaml, OneNameValueLinePerFieldInOrder) {
+  MatcherParams p;
+  p.mean_normalization = false;
+  p.compute_variance = true;
+  p.iterations = 17;
+  std::istringstream in(toYaml(p));
+  std::string line;
+  size_t i = 0;
+  const std::vector<ParamField>& fields = paramFields();
+  while (std::getline(in, line)) {
+    ASSERT_LT(i, fields.size()) << "extra line: " << line;
+    const ParamField& f = fields[i++];
+    const std::string prefix = std::string(f.name) + ": ";
+    ASSERT_EQ(line.rfind(prefix, 0), 0u) << line;
+    const std::string value = line.substr(prefix.size());
+    if (f.type == ParamField::Type::Bool) {
+      EXPECT_EQ(value, f.get(p) != 0 ? "true" : "false");
+    } else {
+      EXPECT_FLOAT_EQ(std::stod(value), f.get(p)) << line;
+    }
+  }
+  EXPECT_EQ(i, fields.size());
+}
+
+TEST(ParamsToYaml, RoundTripsThroughLoadParamsWithYamlDirective) {
+  std::vector<MatcherParams> sets;
+  for (const std::string& name : MatcherParams::presetNames()) sets.push_back(MatcherParams::preset(name));
+  MatcherParams custom;
+  custom.coarsest_level = 4;
+  custom.finest_level = 0;
+  custom.iterations = 20;
+  custom.patch_size = 10;
+  custom.overlap = 0.55f;
+  custom.mean_normalization = false;
+  custom.min_valid_share = 0.5f;
+  custom.window_half_width = 3;
+  custom.window_step = 0.5f;
+  custom.sigma_r = 2.5f;
+  custom.contrast_share = 1.5f;
+  custom.sigma_s = 3.f;
+  custom.confidence_floor = 0.1f;
+  custom.compute_variance = true;
+  sets.push_back(custom);
+  for (const MatcherParams& p : sets) {
+    TempPath file(".yaml");
+    file.write(kYamlDirective + toYaml(p));
+    SCOPED_TRACE(toYaml(p));
+    // A different base: every value must come from the file.
+    expectSameParams(loadParams(file.str(), MatcherParams::preset("fast")), p);
+  }
+}
+
+// BUG (src/core/params.cpp, loadParams: `fs.open(path, READ | FORMAT_AUTO)`):
+// OpenCV 4.6 decides the format from the first bytes, not the extension; a
+// file not starting with "%YAML" (or '{' / '<') is parsed as XML and fails
+// with "Input file is invalid". So toYaml()'s own output (documented as
+// "loadable by loadParams", no directive line) and any ordinary YAML file
+// (e.g. a ROS-style config) cannot be loaded, whatever the extension.
+// Both tests fail, hence DISABLED_.
+TEST(ParamsToYaml, DISABLED_ToYamlOutputLoadsAsIs) {
+  const MatcherParams p = MatcherParams::preset("accurate");
+  TempPath file(".yaml");
+  file.write(toYaml(p));
+  MatcherParams loaded;
+  ASSERT_NO_THROW(loaded = loadParams(file.str()));
+  expectSameParams(loaded, p);
+}
+
+TEST(ParamsLoad, DISABLED_LoadParamsReadsPlainYaml) {
+  TempPath file(".yaml");
+  file.write("preset: fast\niterations: 20\n");
+  MatcherParams loaded;
+  ASSERT_NO_THROW(loaded = loadParams(file.str()));
+  EXPECT_EQ(loaded.iterations, 20);
+  EXPECT_EQ(loaded.overlap, MatcherParams::preset("fast").overlap);
+}
+
+// BUG (src/core/params.cpp, formatValue: `os << v` with the stream's default
+// precision of 6 significant digits): toYaml loses float values that need more
+// digits, e.g. sigma_r = 4.1234567f is written as 4.12346 and reads back as a
+// different float. Needs std::numeric_limits<float>::max_digits10 (9) for
+// float fields. Fails, hence DISABLED_.
+TEST(ParamsToYaml, DISABLED_ToYamlKeepsFullFloatPrecision) {
+  MatcherParams p;
+  p.sigma_r = 4.1234567f;
+  p.window_step = 1.f / 3.f;
+  p.overlap = 0.123456789f;
+  TempPath file(".yaml");
+  file.write(kYamlDirective + toYaml(p));
+  expectSameParams(loadParams(file.str()), p);
+}
+
+}  // namespace

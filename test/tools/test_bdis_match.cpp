@@ -1,0 +1,345 @@
+// Runs the built bdis_match executable on synthetic pairs written to a temp
+// directory and checks its outputs, messages and exit codes.
+#include <gtest/gtest.h>
+
+#include <spawn.h>
+#include <sys/wait.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "bdis_stereo/evaluation.hpp"
+
+extern char** environ;
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kShift = 6;  // px, the known disparity of the synthetic pair
+constexpr int kWidth = 160, kHeight = 128;
+
+struct RunResult {
+  int status = -1;  // raw waitpid status
+  std::string out, err;
+  bool exited() const { return WIFEXITED(status); }
+  int code() const { return WIFEXITED(status) ? WEXITSTATUS(status) : -1; }
+  std::string all() const { return out + err; }
+};
+
+std::string readFile(const std::string& path) {
+  std::ifstream f(path);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+class BdisMatchTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    tool_ = std::string(BDIS_TOOLS_DIR) + "/bdis_match";
+    ASSERT_TRUE(fs::exists(tool_)) << tool_ << " is not built";
+    std::string tmpl = (fs::temp_directory_path() / "bdis_match_test_XXXXXX").string();
+    ASSERT_NE(mkdtemp(tmpl.data()), nullptr);
+    dir_ = tmpl;
+  }
+  void TearDown() override {
+    std::error_code ec;
+    if (!dir_.empty()) fs::remove_all(dir_, ec);
+  }
+
+  std::string path(const std::string& name) const { return (fs::path(dir_) / name).string(); }
+
+  // Runs the tool directly (no shell, so a crash shows up as a signal in the
+  // status rather than as a shell's exit code 128 + n).
+  RunResult run(const std::vector<std::string>& args) {
+    const std::string out_path = path(".stdout"), err_path = path(".stderr");
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    std::vector<std::string> argv_s = {tool_};
+    argv_s.insert(argv_s.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (std::string& a : argv_s) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    RunResult r;
+    pid_t pid = 0;
+    const int rc = posix_spawn(&pid, tool_.c_str(), &actions, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    EXPECT_EQ(rc, 0) << "cannot start " << tool_;
+    if (rc != 0) return r;
+    EXPECT_EQ(waitpid(pid, &r.status, 0), pid);
+    r.out = readFile(out_path);
+    r.err = readFile(err_path);
+    return r;
+  }
+
+  // A smooth random texture (no pure black) and the pair with disparity kShift.
+  static void makePair(int seed, cv::Mat& left, cv::Mat& right, int width = kWidth,
+                       int height = kHeight) {
+    cv::Mat noise(height, width + kShift, CV_32FC1);
+    cv::RNG rng(static_cast<uint64_t>(seed) + 1);
+    rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
+    cv::GaussianBlur(noise, noise, cv::Size(0, 0), 1.5);
+    cv::normalize(noise, noise, 20, 235, cv::NORM_MINMAX);
+    cv::Mat tex;
+    noise.convertTo(tex, CV_8UC1);
+    // left(x) = tex(x), right(x) = tex(x + d): left(x) = right(x - d).
+    left = tex(cv::Rect(0, 0, width, height)).clone();
+    right = tex(cv::Rect(kShift, 0, width, height)).clone();
+  }
+
+  void writePair(const std::string& left_path, const std::string& right_path, int seed = 0) {
+    cv::Mat l, r;
+    makePair(seed, l, r);
+    ASSERT_TRUE(cv::imwrite(left_path, l));
+    ASSERT_TRUE(cv::imwrite(right_path, r));
+  }
+
+  // Exits normally (no signal), non-zero, and mentions `needle`.
+  void expectFailure(const RunResult& r, const std::string& needle) {
+    ASSERT_TRUE(r.exited()) << "terminated by a signal, status " << r.status;
+    EXPECT_NE(r.code(), 0);
+    EXPECT_NE(r.err.find(needle), std::string::npos)
+        << "stderr lacks '" << needle << "':\n" << r.err;
+  }
+
+  std::string tool_, dir_;
+};
+
+double interiorMedian(const cv::Mat& disparity) {
+  std::vector<float> v;
+  const int m = 16;
+  for (int y = m; y < disparity.rows - m; ++y) {
+    for (int x = m + kShift; x < disparity.cols - m; ++x) {
+      const float d = disparity.at<float>(y, x);
+      if (d >= 0.f) v.push_back(d);
+    }
+  }
+  if (v.empty()) return -1;
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+TEST_F(BdisMatchTest, Help) {
+  const RunResult r = run({"--help"});
+  ASSERT_TRUE(r.exited());
+  EXPECT_EQ(r.code(), 0);
+  EXPECT_NE(r.out.find("usage: bdis_match"), std::string::npos);
+  EXPECT_NE(r.out.find("65535"), std::string::npos);  // confidence encoding documented
+  EXPECT_NE(r.out.find("--variance"), std::string::npos);
+}
+
+TEST_F(BdisMatchTest, SinglePairKnownDisparity) {
+  writePair(path("l.png"), path("r.png"));
+  const RunResult r = run({path("l.png"), path("r.png"), path("d.png")});
+  ASSERT_TRUE(r.exited());
+  ASSERT_EQ(r.code(), 0) << r.err;
+
+  const cv::Mat raw = cv::imread(path("d.png"), cv::IMREAD_UNCHANGED);
+  ASSERT_FALSE(raw.empty());
+  EXPECT_EQ(raw.type(), CV_16UC1);
+  EXPECT_EQ(raw.size(), cv::Size(kWidth, kHeight));
+  const double med = interiorMedian(bdis::readDisparityPng(path("d.png")));
+  EXPECT_NEAR(med, kShift, 0.25);
+
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(r.out, m, std::regex(R"(time_ms=([0-9.eE+-]+))"))) << r.out;
+  EXPECT_GT(std::stod(m[1]), 0.0);
+}
+
+TEST_F(BdisMatchTest, ColourAndAlphaInputs) {
+  cv::Mat l, r, lc, rc;
+  makePair(3, l, r);
+  cv::cvtColor(l, lc, cv::COLOR_GRAY2BGRA);
+  cv::cvtColor(r, rc, cv::COLOR_GRAY2BGRA);
+  ASSERT_TRUE(cv::imwrite(path("l.png"), lc));
+  ASSERT_TRUE(cv::imwrite(path("r.png"), rc));
+  const RunResult res = run({path("l.png"), path("r.png"), path("d.png")});
+  ASSERT_TRUE(res.exited());
+  ASSERT_EQ(res.code(), 0) << res.err;
+  EXPECT_NEAR(interiorMedian(bdis::readDisparityPng(path("d.png"))), kShift, 0.25);
+}
+
+TEST_F(BdisMatchTest, ConfidenceAndVariance) {
+  writePair(path("l.png"), path("r.png"));
+  const RunResult r = run({path("l.png"), path("r.png"), path("d.png"), "--preset", "fast",
+                           "--confidence", path("c.png"), "--variance", path("v.png")});
+  ASSERT_TRUE(r.exited());
+  ASSERT_EQ(r.code(), 0) << r.err;
+  const cv::Mat d = cv::imread(path("d.png"), cv::IMREAD_UNCHANGED);
+  const cv::Mat c = cv::imread(path("c.png"), cv::IMREAD_UNCHANGED);
+  const cv::Mat v = cv::imread(path("v.png"), cv::IMREAD_UNCHANGED);
+  for (const cv::Mat* m : {&d, &c, &v}) {
+    ASSERT_FALSE(m->empty());
+    EXPECT_EQ(m->type(), CV_16UC1);
+    EXPECT_EQ(m->size(), cv::Size(kWidth, kHeight));
+  }
+  // Both maps are 0 exactly where there is no estimate (and confidence / variance > 0 elsewhere).
+  int mismatches = 0;
+  for (int y = 0; y < d.rows; ++y) {
+    for (int x = 0; x < d.cols; ++x) {
+      const bool est = d.at<uint16_t>(y, x) > 0;
+      mismatches += (v.at<uint16_t>(y, x) > 0) != est;
+      mismatches += est && c.at<uint16_t>(y, x) == 0;
+      mismatches += !est && c.at<uint16_t>(y, x) != 0;
+    }
+  }
+  EXPECT_EQ(mismatches, 0);
+  EXPECT_GT(cv::countNonZero(d), d.total() / 2);
+}
+
+TEST_F(BdisMatchTest, DirectoryMode) {
+  const std::string L = path("left"), R = path("right"), O = path("out/disp"), C = path("conf");
+  fs::create_directories(L);
+  fs::create_directories(R);
+  for (int i = 0; i < 3; ++i) {
+    const std::string name = "00000" + std::to_string(i) + ".png";
+    writePair(L + "/" + name, R + "/" + name, i);
+  }
+  writePair(L + "/only_left.png", path("unused.png"), 9);  // not in both: ignored
+  const RunResult r = run({"--left-dir", L, "--right-dir", R, "--out-dir", O, "--preset", "fast",
+                           "--confidence-dir", C});
+  ASSERT_TRUE(r.exited());
+  ASSERT_EQ(r.code(), 0) << r.err;
+  size_t written = 0;
+  for (const auto& e : fs::directory_iterator(O)) {
+    ++written;
+    EXPECT_NEAR(interiorMedian(bdis::readDisparityPng(e.path().string())), kShift, 0.25)
+        << e.path();
+  }
+  EXPECT_EQ(written, 3u);
+  EXPECT_TRUE(fs::exists(C + "/000002.png"));
+  EXPECT_FALSE(fs::exists(O + "/only_left.png"));
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(
+      r.out, m,
+      std::regex(R"(frames=3 failed=0 median_ms=([0-9.]+) mean_density=([0-9.]+) out_dir=(\S+))")))
+      << r.out;
+  EXPECT_GT(std::stod(m[1]), 0.0);
+  EXPECT_GT(std::stod(m[2]), 0.5);
+  EXPECT_LE(std::stod(m[2]), 1.0);
+  EXPECT_EQ(m[3].str(), O);
+}
+
+TEST_F(BdisMatchTest, DirectoryModeSkipsFailedFrame) {
+  const std::string L = path("left"), R = path("right"), O = path("out");
+  fs::create_directories(L);
+  fs::create_directories(R);
+  writePair(L + "/a.png", R + "/a.png", 1);
+  writePair(L + "/c.png", R + "/c.png", 2);
+  cv::Mat l, r;
+  makePair(4, l, r);
+  ASSERT_TRUE(cv::imwrite(L + "/b.png", l));
+  ASSERT_TRUE(cv::imwrite(R + "/b.png", r(cv::Rect(0, 0, kWidth - 8, kHeight))));
+  const RunResult res = run({"--left-dir", L, "--right-dir", R, "--out-dir", O, "--preset", "fast"});
+  expectFailure(res, "b.png");
+  EXPECT_EQ(res.code(), 1);
+  EXPECT_NE(res.out.find("frames=2 failed=1"), std::string::npos) << res.out;
+  EXPECT_TRUE(fs::exists(O + "/a.png"));
+  EXPECT_TRUE(fs::exists(O + "/c.png"));
+  EXPECT_FALSE(fs::exists(O + "/b.png"));
+}
+
+TEST_F(BdisMatchTest, MissingFile) {
+  writePair(path("l.png"), path("r.png"));
+  expectFailure(run({path("l.png"), path("nope.png"), path("d.png")}), "nope.png");
+  expectFailure(run({path("l.png"), path("nope.png"), path("d.png")}), "no such file");
+  EXPECT_FALSE(fs::exists(path("d.png")));
+}
+
+TEST_F(BdisMatchTest, UnreadableImage) {
+  writePair(path("l.png"), path("r.png"));
+  std::ofstream(path("junk.png")) << "not an image";
+  expectFailure(run({path("junk.png"), path("r.png"), path("d.png")}), "not a readable image");
+}
+
+TEST_F(BdisMatchTest, MismatchedSizes) {
+  cv::Mat l, r;
+  makePair(0, l, r);
+  ASSERT_TRUE(cv::imwrite(path("l.png"), l));
+  ASSERT_TRUE(cv::imwrite(path("r.png"), r(cv::Rect(0, 0, kWidth - 10, kHeight))));
+  const RunResult res = run({path("l.png"), path("r.png"), path("d.png")});
+  expectFailure(res, "equal sizes");
+  EXPECT_NE(res.err.find(path("l.png")), std::string::npos) << res.err;  // prefixed with names
+}
+
+TEST_F(BdisMatchTest, SixteenBitInput) {
+  cv::Mat l, r, l16, r16;
+  makePair(0, l, r);
+  l.convertTo(l16, CV_16UC1, 256);
+  r.convertTo(r16, CV_16UC1, 256);
+  ASSERT_TRUE(cv::imwrite(path("l.png"), l16));
+  ASSERT_TRUE(cv::imwrite(path("r.png"), r16));
+  const RunResult res = run({path("l.png"), path("r.png"), path("d.png")});
+  expectFailure(res, "8-bit");
+  EXPECT_NE(res.err.find(path("l.png")), std::string::npos) << res.err;
+}
+
+TEST_F(BdisMatchTest, UnknownPreset) {
+  writePair(path("l.png"), path("r.png"));
+  expectFailure(run({path("l.png"), path("r.png"), path("d.png"), "--preset", "turbo"}), "turbo");
+}
+
+TEST_F(BdisMatchTest, BadSet) {
+  writePair(path("l.png"), path("r.png"));
+  const std::string l = path("l.png"), r = path("r.png"), d = path("d.png");
+  expectFailure(run({l, r, d, "--set", "no_such_param=1"}), "no_such_param");
+  expectFailure(run({l, r, d, "--set", "iterations=abc"}), "iterations");
+  expectFailure(run({l, r, d, "--set", "iterations"}), "NAME=VALUE");
+  expectFailure(run({l, r, d, "--set"}), "--set needs a value");
+}
+
+TEST_F(BdisMatchTest, BadParamsFile) {
+  writePair(path("l.png"), path("r.png"));
+  const std::string l = path("l.png"), r = path("r.png"), d = path("d.png");
+  std::ofstream(path("bad.yaml")) << "%YAML:1.0\nno_such_param: 3\n";
+  expectFailure(run({l, r, d, "--params", path("bad.yaml")}), "no_such_param");
+  expectFailure(run({l, r, d, "--params", path("missing.yaml")}), "missing.yaml");
+  std::ofstream(path("garbage.yaml")) << "{{{ : : not yaml\n";
+  const RunResult g = run({l, r, d, "--params", path("garbage.yaml")});
+  expectFailure(g, "garbage.yaml");
+  EXPECT_EQ(std::count(g.err.begin(), g.err.end(), '\n'), 1) << g.err;  // one line
+  EXPECT_FALSE(fs::exists(d));
+}
+
+TEST_F(BdisMatchTest, UnwritableOutput) {
+  writePair(path("l.png"), path("r.png"));
+  const std::string l = path("l.png"), r = path("r.png");
+  expectFailure(run({l, r, path("no_dir/d.png")}), "does not exist");
+  // A regular file where a directory is expected (fails even for root).
+  expectFailure(run({l, r, path("l.png/d.png")}), "not a directory");
+  expectFailure(run({l, r, path("d.png"), "--confidence", path("no_dir/c.png")}), "no_dir");
+  expectFailure(run({l, r, path("d.jpg")}), ".png");
+  const auto before = fs::last_write_time(l);
+  expectFailure(run({l, r, l}), "same path");  // would overwrite an input
+  EXPECT_EQ(fs::last_write_time(l), before);
+  fs::create_directories(path("left"));
+  fs::create_directories(path("right"));
+  writePair(path("left/a.png"), path("right/a.png"));
+  expectFailure(run({"--left-dir", path("left"), "--right-dir", path("right"), "--out-dir",
+                     path("l.png/out")}),
+                "cannot create output directory");
+}
+
+TEST_F(BdisMatchTest, BadCommandLine) {
+  const RunResult none = run({});
+  expectFailure(none, "expected LEFT RIGHT OUT.png");
+  EXPECT_EQ(none.code(), 2);
+  expectFailure(run({"a.png", "b.png", "c.png", "--bogus"}), "unknown option --bogus");
+  expectFailure(run({"--left-dir", "x", "--out-dir", "y"}), "--right-dir");
+}
+
+}  // namespace
