@@ -48,6 +48,9 @@ cv::Mat readStereoImage(const std::string& path);
 /// std::runtime_error when either is not a directory.
 std::vector<std::string> pairedFileNames(const std::string& dir_a, const std::string& dir_b);
 
+/// cv::imwrite that throws std::runtime_error naming the path on failure.
+void writeImage(const std::string& path, const cv::Mat& image);
+
 /// One stereo sequence on disk.
 struct StereoSequence {
   std::string root;

@@ -21,7 +21,10 @@ constexpr int kMinImageSide = 32;
 /// Per-pixel outputs at the full input resolution.
 struct MatchResult {
   cv::Mat disparity;   ///< CV_32FC1, d >= 0 px, kNoDisparity where there is no estimate
-  cv::Mat confidence;  ///< CV_32FC1 in [0, 1]; 0 where there is no estimate
+  /// CV_32FC1 in [0, 1]: mean over the covering patches of their posterior
+  /// above chance (a flat cost gives 0, a single sharp minimum 1); 0 where
+  /// there is no estimate.
+  cv::Mat confidence;
   cv::Mat variance;    ///< CV_32FC1 px^2 when compute_variance, NaN where no estimate; else empty
 };
 

@@ -95,11 +95,15 @@ void writeDisparityPng(const std::string& path, const cv::Mat& disparity) {
                          : 0;
     }
   }
+  writeImage(path, raw);
+}
+
+void writeImage(const std::string& path, const cv::Mat& image) {
   bool ok = false;
   try {
-    ok = cv::imwrite(path, raw);
+    ok = cv::imwrite(path, image);
   } catch (const cv::Exception& e) {
-    throw std::runtime_error("cannot write " + path + ": " + e.what());
+    throw std::runtime_error("cannot write " + path + ": " + e.msg);
   }
   if (!ok) throw std::runtime_error("cannot write " + path);
 }

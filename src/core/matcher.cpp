@@ -92,10 +92,6 @@ struct SearchPass {
   // Per-patch scratch, p*p or row-sized.
   std::vector<float> tmpl, grad, spatial, row_buf, costs, likelihood;
   std::vector<uchar> tmpl_valid;
-  cv::Size sized_for{0, 0};
-  int sized_levels = 0;
-  int sized_patch = 0;
-  int sized_window = 0;
 
   void allocate(cv::Size size, int levels);
   /// Matches levels coarsest..finest; leaves the finest level's floored result
@@ -118,6 +114,11 @@ struct SearchPass {
   float patchCost(float u, float* valid_count = nullptr);
   float refinePatch(float u_start);
   PatchEstimate patchPosterior(float u);
+  /// Variance of a failed fit: a Gaussian twice as wide as the window, px^2 at the level.
+  float maxVariance() const {
+    const float half_span = static_cast<float>(params.window_half_width) * params.window_step;
+    return 4.f * half_span * half_span;
+  }
   bool adoptIfBetter(float candidate, float& u, float& best_cost);
   void fuseLevel(int s, bool finest);
   void upsampleToFull(int s, const cv::Mat& left, MatchResult& out) const;
@@ -150,9 +151,8 @@ const MatcherParams& Matcher::params() const { return impl_->params; }
 void SearchPass::allocate(cv::Size size, int levels) {
   const int p = params.patch_size;
   const int window = 2 * params.window_half_width + 1;
-  if (size == sized_for && levels == sized_levels && p == sized_patch && window == sized_window) {
-    return;
-  }
+  // Every create()/resize() below is a no-op when the size is unchanged, so a
+  // steady stream of equal frames allocates nothing.
   init_disparity.resize(static_cast<size_t>(levels) + 1);
   for (int s = 0; s <= levels; ++s) {
     init_disparity[s].create(std::max(1, size.height >> s), std::max(1, size.width >> s));
@@ -179,10 +179,6 @@ void SearchPass::allocate(cv::Size size, int levels) {
   row_buf.resize(static_cast<size_t>(p + max_window_span + 2));
   costs.resize(static_cast<size_t>(window));
   likelihood.resize(static_cast<size_t>(window));
-  sized_for = size;
-  sized_levels = levels;
-  sized_patch = p;
-  sized_window = window;
 }
 
 void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& result) {
@@ -432,8 +428,7 @@ PatchEstimate SearchPass::patchPosterior(float u) {
     }
     const float denom = cnt * sxx - sx * sx;
     const float slope = denom > 0.f ? (cnt * sxy - sx * sy) / denom : 0.f;
-    const float max_var = 4.f * static_cast<float>(n * n) * delta * delta;
-    est.variance = slope < 0.f ? std::min(max_var, -0.5f / slope) : max_var;
+    est.variance = slope < 0.f ? std::min(maxVariance(), -0.5f / slope) : maxVariance();
   }
   return est;
 }
@@ -494,7 +489,12 @@ void SearchPass::fuseLevel(int s, bool finest) {
         const bool keep = d > 0.f && conf >= params.confidence_floor;
         level_disparity(y, x) = keep ? init(y, x) : kNoDisparity;
         level_confidence(y, x) = keep ? conf : 0.f;
-        if (variance) level_variance(y, x) = keep ? vnum(y, x) / vden(y, x) : kNaN;
+        // Squared weights can underflow for a tiny sigma_s: report the maximal
+        // variance then rather than 0/0.
+        if (variance) {
+          level_variance(y, x) =
+              !keep ? kNaN : vden(y, x) > 0.f ? vnum(y, x) / vden(y, x) : maxVariance();
+        }
       }
     }
   }

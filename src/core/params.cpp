@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -32,7 +33,9 @@ std::string formatValue(const ParamField& f, double v) {
   if (f.type == Type::Bool) {
     os << (v != 0.0 ? "true" : "false");
   } else {
-    os << v;
+    // Enough digits that the float field reads back bit-identical.
+    os.precision(f.type == Type::Float ? std::numeric_limits<float>::max_digits10 : 17);
+    os << (f.type == Type::Float ? static_cast<double>(static_cast<float>(v)) : v);
   }
   return os.str();
 }

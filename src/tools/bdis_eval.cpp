@@ -39,6 +39,7 @@ options:
   --frames N           use at most N frames per sequence
   --json FILE          also write the results as JSON
   --dump-dir DIR       write every disparity as DIR/<sequence>/<method>/<frame>.png (16-bit, d*256)
+                       and bdis confidence as conf_<frame>.png (16-bit, c*65535)
 )";
 
 /// A disparity method under test: fills CV_32FC1 disparity, negative = none,
@@ -188,7 +189,7 @@ int run(int argc, char** argv) {
           if (!conf.empty()) {
             cv::Mat conf16;
             conf.convertTo(conf16, CV_16UC1, 65535.0);
-            cv::imwrite((dir / ("conf_" + seq.names[f])).string(), conf16);
+            writeImage((dir / ("conf_" + seq.names[f])).string(), conf16);
           }
         }
       }

@@ -116,16 +116,6 @@ cv::Mat encodeVariance(const MatchResult& r) {
   return out;
 }
 
-void writePng16(const std::string& path, const cv::Mat& image) {
-  bool ok = false;
-  try {
-    ok = cv::imwrite(path, image);
-  } catch (const cv::Exception& e) {
-    throw std::runtime_error("cannot write " + path + ": " + e.what());
-  }
-  if (!ok) throw std::runtime_error("cannot write " + path);
-}
-
 /// Share of the non-black pixels of `left` that have an estimate.
 double density(const cv::Mat& disparity, const cv::Mat& left) {
   const int ch = left.channels();
@@ -162,8 +152,8 @@ class PairRunner {
       throw std::runtime_error(left_path + ", " + right_path + ": " + e.what());
     }
     writeDisparityPng(out.disparity, result_.disparity);
-    if (!out.confidence.empty()) writePng16(out.confidence, encodeConfidence(result_));
-    if (!out.variance.empty()) writePng16(out.variance, encodeVariance(result_));
+    if (!out.confidence.empty()) writeImage(out.confidence, encodeConfidence(result_));
+    if (!out.variance.empty()) writeImage(out.variance, encodeVariance(result_));
     if (frame_density) *frame_density = density(result_.disparity, left);
     return ms;
   }
