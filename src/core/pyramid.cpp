@@ -6,7 +6,7 @@ namespace bdis {
 namespace detail {
 namespace {
 
-// Rec. 601 luma in 8.8 fixed point, as cv::cvtColor(BGR2GRAY) does.
+// Rec. 601 luma in 8.8 fixed point (within 1 grey level of cv::cvtColor).
 inline float bgrToGrey(const uchar* bgr) {
   return static_cast<float>((29 * bgr[0] + 150 * bgr[1] + 77 * bgr[2] + 128) >> 8);
 }

@@ -24,8 +24,8 @@ using bdis_test::contains;
 using bdis_test::invalidArgumentMessage;
 using bdis_test::TempPath;
 
-// OpenCV's FileStorage (behind loadParams) only recognises YAML that starts
-// with this directive; see DISABLED_LoadParamsReadsPlainYaml below.
+// OpenCV's own YAML directive. Files with it must keep loading; files without
+// it are covered by LoadParamsReadsPlainYaml and ToYamlOutputLoadsAsIs.
 const std::string kYamlDirective = "%YAML:1.0\n";
 
 void expectSameParams(const MatcherParams& a, const MatcherParams& b) {
@@ -212,20 +212,23 @@ TEST(ParamsValidation, SetParamsRejectsInvalidAndKeepsThePreviousParams) {
 // ---------------------------------------------------------------------------
 
 TEST(ParamsLoad, ReadsPresetAndOverrides) {
-  TempPath file(".yaml");
-  file.write(kYamlDirective +
-             "preset: fast\n"
-             "iterations: 20\n"
-             "mean_normalization: false\n"
-             "compute_variance: true\n"
-             "sigma_r: 2.5\n");
-  const MatcherParams p = loadParams(file.str());
   MatcherParams expected = MatcherParams::preset("fast");
   expected.iterations = 20;
   expected.mean_normalization = false;
   expected.compute_variance = true;
   expected.sigma_r = 2.5f;
-  expectSameParams(p, expected);
+  for (const std::string& header : {std::string(), kYamlDirective}) {
+    SCOPED_TRACE(header.empty() ? "plain YAML" : "with OpenCV's YAML directive");
+    TempPath file(".yaml");
+    file.write(header +
+               "# a comment line\n"
+               "preset: fast\n"
+               "iterations: 20\n"
+               "mean_normalization: false\n"
+               "compute_variance: true\n"
+               "sigma_r: 2.5  # grey levels\n");
+    expectSameParams(loadParams(file.str()), expected);
+  }
 }
 
 TEST(ParamsLoad, PresetAppliesFirstWhereverItIsInTheFile) {
@@ -376,14 +379,14 @@ TEST(ParamsToYaml, RoundTripsThroughLoadParamsWithYamlDirective) {
   }
 }
 
-// BUG (src/core/params.cpp, loadParams: `fs.open(path, READ | FORMAT_AUTO)`):
-// OpenCV 4.6 decides the format from the first bytes, not the extension; a
-// file not starting with "%YAML" (or '{' / '<') is parsed as XML and fails
-// with "Input file is invalid". So toYaml()'s own output (documented as
-// "loadable by loadParams", no directive line) and any ordinary YAML file
-// (e.g. a ROS-style config) cannot be loaded, whatever the extension.
-// Both tests fail, hence DISABLED_.
-TEST(ParamsToYaml, DISABLED_ToYamlOutputLoadsAsIs) {
+// Regression tests for a bug found while writing these tests: loadParams
+// opened the file with cv::FileStorage FORMAT_AUTO, which in OpenCV 4.6 decides
+// the format from the first bytes, not the extension; a file not starting with
+// "%YAML" (or '{' / '<') was parsed as XML and failed with "Input file is
+// invalid". So toYaml()'s own output (no directive line) and any ordinary
+// (ROS-style) YAML file could not be loaded. Fixed in params.cpp loadParams,
+// which now prepends the directive; these tests were DISABLED_ until then.
+TEST(ParamsToYaml, ToYamlOutputLoadsAsIs) {
   const MatcherParams p = MatcherParams::preset("accurate");
   TempPath file(".yaml");
   file.write(toYaml(p));
@@ -392,7 +395,7 @@ TEST(ParamsToYaml, DISABLED_ToYamlOutputLoadsAsIs) {
   expectSameParams(loaded, p);
 }
 
-TEST(ParamsLoad, DISABLED_LoadParamsReadsPlainYaml) {
+TEST(ParamsLoad, LoadParamsReadsPlainYaml) {
   TempPath file(".yaml");
   file.write("preset: fast\niterations: 20\n");
   MatcherParams loaded;
@@ -401,12 +404,12 @@ TEST(ParamsLoad, DISABLED_LoadParamsReadsPlainYaml) {
   EXPECT_EQ(loaded.overlap, MatcherParams::preset("fast").overlap);
 }
 
-// BUG (src/core/params.cpp, formatValue: `os << v` with the stream's default
-// precision of 6 significant digits): toYaml loses float values that need more
-// digits, e.g. sigma_r = 4.1234567f is written as 4.12346 and reads back as a
-// different float. Needs std::numeric_limits<float>::max_digits10 (9) for
-// float fields. Fails, hence DISABLED_.
-TEST(ParamsToYaml, DISABLED_ToYamlKeepsFullFloatPrecision) {
+// Regression test for a bug found while writing these tests: formatValue
+// (src/core/params.cpp) wrote numbers with the stream's default precision of
+// 6 significant digits, so toYaml lost float values that need more, e.g.
+// sigma_r = 4.1234567f was written as 4.12346 and read back as a different
+// float. Fixed (max_digits10 for float fields); DISABLED_ until then.
+TEST(ParamsToYaml, ToYamlKeepsFullFloatPrecision) {
   MatcherParams p;
   p.sigma_r = 4.1234567f;
   p.window_step = 1.f / 3.f;
