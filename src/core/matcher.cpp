@@ -163,12 +163,8 @@ void SearchPass::allocate(cv::Size size, int levels) {
                        &level_disparity, &level_confidence, &level_variance}) {
     m->create(largest);
   }
-  const size_t max_patches =
-      static_cast<size_t>(largest.width / 1 + 2) * static_cast<size_t>(largest.height / 1 + 2);
-  xs.reserve(static_cast<size_t>(largest.width) + 2);
-  ys.reserve(static_cast<size_t>(largest.height) + 2);
-  patches.reserve(max_patches);
-  patch_loaded.reserve(max_patches);
+  // xs, ys, patches and patch_loaded grow to the finest level's size on the
+  // first frame and keep that capacity afterwards.
   const size_t pp = static_cast<size_t>(p) * p;
   tmpl.resize(pp);
   grad.resize(pp);

@@ -96,7 +96,6 @@ void integral(const cv::Mat_<Src>& src, cv::Mat_<Dst>& sum, F value) {
 }
 
 void buildIntegrals(PyramidLevel& l) {
-  integral(l.left, l.left_sum, [](float v) { return double(v); });
   integral(l.left_gx, l.gx_sum, [](float v) { return double(v); });
   integral(l.left_gx, l.gx_sq_sum, [](float v) { return double(v) * v; });
   integral(l.left_valid, l.left_invalid, [](uchar v) { return int(v == 0); });
@@ -111,7 +110,6 @@ void allocate(PyramidLevel& l, int w, int h) {
   l.left_gx.create(h, w);
   l.left_valid.create(h, w);
   l.right_valid.create(h, w);
-  l.left_sum.create(h + 1, w + 1);
   l.gx_sum.create(h + 1, w + 1);
   l.gx_sq_sum.create(h + 1, w + 1);
   l.left_invalid.create(h + 1, w + 1);

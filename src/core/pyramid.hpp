@@ -20,7 +20,6 @@ struct PyramidLevel {
   cv::Mat1b left_valid;  ///< 1 where the pixel lies inside the rectified view
   cv::Mat1b right_valid;
   // Integral images ((h+1) x (w+1)), used by the all-valid fast path.
-  cv::Mat1d left_sum;       ///< sum of left
   cv::Mat1d gx_sum;         ///< sum of gx
   cv::Mat1d gx_sq_sum;      ///< sum of gx^2 (the 1-D Hessian)
   cv::Mat1i left_invalid;   ///< count of invalid left pixels
