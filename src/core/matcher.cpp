@@ -90,7 +90,7 @@ struct SearchPass {
   std::vector<PatchEstimate> patches;
 
   // Per-patch scratch, p*p or row-sized.
-  std::vector<float> tmpl, grad, spatial, row_buf, costs, likelihood;
+  std::vector<float> tmpl, grad, spatial, row_buf, costs, likelihood, window_sum, window_sq;
   std::vector<uchar> tmpl_valid;
 
   void allocate(cv::Size size, int levels);
@@ -113,6 +113,9 @@ struct SearchPass {
   /// Mean squared residual at disparity u (mean-normalised if enabled); +inf without pixels.
   float patchCost(float u, float* valid_count = nullptr);
   float refinePatch(float u_start);
+  /// Costs of the window samples around u into `costs`, through one shared
+  /// interpolation when they allow it; returns the valid pixels at u.
+  float windowCosts(float u);
   PatchEstimate patchPosterior(float u);
   /// Variance of a failed fit: a Gaussian twice as wide as the window, px^2 at the level.
   float maxVariance() const {
@@ -175,6 +178,8 @@ void SearchPass::allocate(cv::Size size, int levels) {
   row_buf.resize(static_cast<size_t>(p + max_window_span + 2));
   costs.resize(static_cast<size_t>(window));
   likelihood.resize(static_cast<size_t>(window));
+  window_sum.resize(static_cast<size_t>(window));
+  window_sq.resize(static_cast<size_t>(window));
 }
 
 void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& result) {
@@ -379,6 +384,32 @@ float SearchPass::refinePatch(float u_start) {
   return u;
 }
 
+float SearchPass::windowCosts(float u) {
+  const int n = params.window_half_width;
+  const float delta = params.window_step;
+  const int p = params.patch_size;
+  const int step = static_cast<int>(delta);
+  const PyramidLevel& L = *cur.level;
+  if (cur.left_all_valid && static_cast<float>(step) == delta) {
+    // Samples whole pixels apart: one interpolated row serves them all.
+    const SampleSpan lo = detail::sampleSpan(cur.x0, u + static_cast<float>(n) * delta);
+    const int last = lo.base + p + 2 * n * step;  // rightmost column read
+    if (lo.base >= 0 && last < L.width &&
+        rectSum(L.right_invalid, lo.base, cur.y0, last + 1, cur.y0 + p) == 0) {
+      detail::windowCostsAllValid(L.right, cur.y0, p, lo.base, lo.frac, 2 * n + 1, step,
+                                  tmpl.data(), params.mean_normalization, row_buf.data(),
+                                  window_sum.data(), window_sq.data(), costs.data());
+      return static_cast<float>(p * p);
+    }
+  }
+  float valid_at_optimum = 0.f;
+  for (int j = -n; j <= n; ++j) {
+    costs[static_cast<size_t>(j + n)] =
+        patchCost(u + static_cast<float>(j) * delta, j == 0 ? &valid_at_optimum : nullptr);
+  }
+  return valid_at_optimum;
+}
+
 PatchEstimate SearchPass::patchPosterior(float u) {
   const int pp = params.patch_size * params.patch_size;
   PatchEstimate est;
@@ -386,11 +417,7 @@ PatchEstimate SearchPass::patchPosterior(float u) {
   // Posterior over the window u + k*delta, k = -n..n.
   const int n = params.window_half_width;
   const float delta = params.window_step;
-  float valid_at_optimum = 0.f;
-  for (int j = -n; j <= n; ++j) {
-    costs[static_cast<size_t>(j + n)] =
-        patchCost(u + static_cast<float>(j) * delta, j == 0 ? &valid_at_optimum : nullptr);
-  }
+  const float valid_at_optimum = windowCosts(u);
   if (valid_at_optimum < params.min_valid_share * static_cast<float>(pp)) return est;
   const float e0 = costs[static_cast<size_t>(n)];
   if (!std::isfinite(e0)) return est;

@@ -63,6 +63,39 @@ inline void sumsAllValid(const cv::Mat1f& right, int y0, int p, SampleSpan span,
   out.g_diff = sgd;
 }
 
+/// Window fast path: the costs of `samples` disparities a whole number of
+/// pixels (`step`) apart, which share one interpolation weight. Sample j reads
+/// the right patch at column base_lo + step * (samples - 1 - j), so one
+/// interpolated row serves every sample instead of re-interpolating per sample.
+/// Requires the columns base_lo .. base_lo + p + step * (samples - 1) valid.
+/// Writes the mean squared residual (mean-normalised if asked) per sample.
+inline void windowCostsAllValid(const cv::Mat1f& right, int y0, int p, int base_lo, float frac,
+                                int samples, int step, const float* T, bool mean_normalization,
+                                float* row_buf, float* sum, float* sum_sq, float* costs) {
+  const int len = p + step * (samples - 1);
+  for (int j = 0; j < samples; ++j) sum[j] = sum_sq[j] = 0.f;
+  for (int y = 0; y < p; ++y) {
+    interpolateRow(right[y0 + y], base_lo, frac, len, row_buf);
+    const float* t = T + y * p;
+    for (int j = 0; j < samples; ++j) {
+      const float* r = row_buf + step * (samples - 1 - j);
+      float sd = 0, sdd = 0;
+      for (int i = 0; i < p; ++i) {
+        const float d = r[i] - t[i];
+        sd += d;
+        sdd += d * d;
+      }
+      sum[j] += sd;
+      sum_sq[j] += sdd;
+    }
+  }
+  const float inv_n = 1.f / static_cast<float>(p * p);
+  for (int j = 0; j < samples; ++j) {
+    const float mean = sum[j] * inv_n;
+    costs[j] = sum_sq[j] * inv_n - (mean_normalization ? mean * mean : 0.f);
+  }
+}
+
 /// General path: pixels invalid in the template (M == 0), outside the image,
 /// or touching an invalid right pixel are left out of every sum.
 inline void sumsMasked(const cv::Mat1f& right, const cv::Mat1b& right_valid, int y0, int p,

@@ -1,0 +1,99 @@
+// The inner loops of the patch search (src/core/patch_kernels.hpp) against a
+// plain per-pixel reference, so any faster path must give the same sums.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <ostream>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "../../src/core/patch_kernels.hpp"
+
+namespace {
+
+using namespace bdis::detail;
+
+/// Reference: mean (optionally mean-normalised) squared residual of the p x p
+/// template at (x0, y0) against the right image sampled at x - u, bilinear in x.
+double referenceCost(const cv::Mat1f& right, const std::vector<float>& T, int x0, int y0, int p,
+                     double u, bool mean_normalization) {
+  double s = 0, ss = 0;
+  for (int y = 0; y < p; ++y) {
+    for (int x = 0; x < p; ++x) {
+      const double xs = x0 + x - u;
+      const int b = static_cast<int>(std::floor(xs));
+      const double f = xs - b;
+      const double sample = (1 - f) * right(y0 + y, b) + f * right(y0 + y, b + 1);
+      const double d = sample - T[static_cast<size_t>(y * p + x)];
+      s += d;
+      ss += d * d;
+    }
+  }
+  const double n = p * p, mean = s / n;
+  return ss / n - (mean_normalization ? mean * mean : 0.0);
+}
+
+struct KernelCase {
+  int p, half_width, step;
+  bool mean_normalization;
+};
+
+void PrintTo(const KernelCase& c, std::ostream* os) {
+  *os << "p=" << c.p << " n=" << c.half_width << " step=" << c.step
+      << (c.mean_normalization ? " mean-normalised" : " plain");
+}
+
+class WindowCosts : public ::testing::TestWithParam<KernelCase> {};
+
+TEST_P(WindowCosts, SharedRowsGiveThePerSampleCosts) {
+  const KernelCase c = GetParam();
+  cv::RNG rng(11);
+  cv::Mat1f right(40, 160);
+  rng.fill(right, cv::RNG::UNIFORM, 0.f, 255.f);
+  const int x0 = 70, y0 = 5, samples = 2 * c.half_width + 1;
+  std::vector<float> T(static_cast<size_t>(c.p * c.p));
+  for (float& t : T) t = rng.uniform(0.f, 255.f);
+  std::vector<float> row(static_cast<size_t>(c.p + 2 * c.half_width * c.step + 2));
+  std::vector<float> sum(samples), sum_sq(samples), costs(samples);
+  for (double u : {3.0, 12.25, 17.7, 30.999}) {
+    const SampleSpan lo = sampleSpan(x0, static_cast<float>(u + c.half_width * c.step));
+    windowCostsAllValid(right, y0, c.p, lo.base, lo.frac, samples, c.step, T.data(),
+                        c.mean_normalization, row.data(), sum.data(), sum_sq.data(),
+                        costs.data());
+    for (int j = 0; j < samples; ++j) {
+      const double uj = u + (j - c.half_width) * c.step;
+      const double want = referenceCost(right, T, x0, y0, c.p, uj, c.mean_normalization);
+      EXPECT_NEAR(costs[static_cast<size_t>(j)], want, 2e-4 * want)
+          << "p=" << c.p << " u=" << u << " sample " << j;
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(PatchKernels, WindowCosts,
+                         ::testing::Values(KernelCase{8, 2, 1, true}, KernelCase{8, 2, 1, false},
+                                           KernelCase{5, 4, 2, true}, KernelCase{12, 1, 3, true}));
+
+TEST(PatchKernels, AllValidSumsMatchTheMaskedPathWhenEverythingIsValid) {
+  cv::RNG rng(3);
+  const int p = 8, x0 = 50, y0 = 4;
+  cv::Mat1f right(20, 120);
+  rng.fill(right, cv::RNG::UNIFORM, 0.f, 255.f);
+  cv::Mat1b valid(right.size(), uchar(1));
+  std::vector<float> T(p * p), G(p * p), row(p + 2);
+  std::vector<uchar> M(p * p, 1);
+  for (float& t : T) t = rng.uniform(0.f, 255.f);
+  for (float& g : G) g = rng.uniform(-20.f, 20.f);
+  const SampleSpan span = sampleSpan(x0, 9.37f);
+  ResidualSums fast, masked;
+  sumsAllValid(right, y0, p, span, T.data(), G.data(), true, row.data(), fast);
+  sumsMasked(right, valid, y0, p, span, T.data(), G.data(), M.data(), masked);
+  EXPECT_EQ(fast.count, masked.count);
+  EXPECT_NEAR(fast.diff, masked.diff, 1e-3 * std::fabs(masked.diff) + 1e-2);
+  EXPECT_NEAR(fast.diff_sq, masked.diff_sq, 1e-4 * masked.diff_sq);
+  EXPECT_NEAR(fast.g_diff, masked.g_diff, 1e-3 * std::fabs(masked.g_diff) + 1e-1);
+  EXPECT_NEAR(referenceCost(right, T, x0, y0, p, 9.37, false), masked.diff_sq / masked.count,
+              1e-3 * masked.diff_sq / masked.count);
+}
+
+}  // namespace
