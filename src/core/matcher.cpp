@@ -32,6 +32,12 @@ void patchAxis(int extent, int p, int stride, std::vector<int>& out) {
   if (out.empty() || out.back() != extent - p) out.push_back(extent - p);
 }
 
+/// Row-wise fill: cv::Mat::setTo allocates an iterator on ROIs, and the
+/// steady state must not allocate.
+void fill(cv::Mat1f& m, float value) {
+  for (int y = 0; y < m.rows; ++y) std::fill(m[y], m[y] + m.cols, value);
+}
+
 std::string describe(const cv::Mat& m) {
   return std::to_string(m.cols) + "x" + std::to_string(m.rows) + " type " +
          cv::typeToString(m.type());
@@ -244,7 +250,7 @@ void SearchPass::run(const cv::Mat& reference, const cv::Mat& other, int levels)
   }
 
   // Start from zero disparity above the coarsest level.
-  init_disparity[levels].setTo(0.f);
+  fill(init_disparity[levels], 0.f);
   for (int s = levels - 1; s >= finest; --s) matchLevel(s, s == finest);
 }
 
@@ -462,7 +468,7 @@ void SearchPass::fuseLevel(int s, bool finest) {
   const cv::Rect roi(0, 0, L.width, L.height);
   cv::Mat1f num = fused_num(roi), den = fused_den(roi), csum = conf_sum(roi),
             cover = cover_count(roi), vnum = var_num(roi), vden = var_den(roi);
-  for (cv::Mat1f* m : {&num, &den, &csum, &cover, &vnum, &vden}) m->setTo(0.f);
+  for (cv::Mat1f* m : {&num, &den, &csum, &cover, &vnum, &vden}) fill(*m, 0.f);
   const bool variance = params.compute_variance && finest;
 
   size_t k = 0;
