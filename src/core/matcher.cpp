@@ -38,6 +38,8 @@ void fill(cv::Mat1f& m, float value) {
   for (int y = 0; y < m.rows; ++y) std::fill(m[y], m[y] + m.cols, value);
 }
 
+size_t rowStride(const cv::Mat1f& m) { return m.step1(); }
+
 std::string describe(const cv::Mat& m) {
   return std::to_string(m.cols) + "x" + std::to_string(m.rows) + " type " +
          cv::typeToString(m.type());
@@ -87,6 +89,7 @@ struct PatchEstimate {
 struct SearchPass {
   MatcherParams params;  ///< effective settings of the current frame
   detail::StereoPyramid pyramid;
+  const detail::KernelSet* kernels = nullptr;  ///< inner loops for this patch size and CPU
 
   // Per-level state, sized on the first frame of a given size.
   std::vector<cv::Mat1f> init_disparity;  ///< dense coarse-to-fine initialisation per level
@@ -159,6 +162,7 @@ const MatcherParams& Matcher::params() const { return impl_->params; }
 
 void SearchPass::allocate(cv::Size size, int levels) {
   const int p = params.patch_size;
+  kernels = &detail::kernelsFor(p, detail::bestKernelIsa());
   const int window = 2 * params.window_half_width + 1;
   // Every create()/resize() below is a no-op when the size is unchanged, so a
   // steady stream of equal frames allocates nothing.
@@ -348,8 +352,8 @@ void SearchPass::patchSums(float u, bool want_cost, ResidualSums& r) {
   const bool fast = cur.left_all_valid && span.base >= 0 && span.base + p < L.width &&
                     rectSum(L.right_invalid, span.base, cur.y0, span.base + p + 1, cur.y0 + p) == 0;
   if (fast) {
-    detail::sumsAllValid(L.right, cur.y0, p, span, tmpl.data(), grad.data(), want_cost,
-                         row_buf.data(), r);
+    kernels->sums_all_valid(L.right[cur.y0], rowStride(L.right), p, span, tmpl.data(), grad.data(),
+                            want_cost, row_buf.data(), r);
     r.g = cur.g_sum;
     r.g_sq = cur.g_sq_sum;
   } else {
@@ -402,9 +406,9 @@ float SearchPass::windowCosts(float u) {
     const int last = lo.base + p + 2 * n * step;  // rightmost column read
     if (lo.base >= 0 && last < L.width &&
         rectSum(L.right_invalid, lo.base, cur.y0, last + 1, cur.y0 + p) == 0) {
-      detail::windowCostsAllValid(L.right, cur.y0, p, lo.base, lo.frac, 2 * n + 1, step,
-                                  tmpl.data(), params.mean_normalization, row_buf.data(),
-                                  window_sum.data(), window_sq.data(), costs.data());
+      kernels->window_costs(L.right[cur.y0], rowStride(L.right), p, lo.base, lo.frac, 2 * n + 1,
+                            step, tmpl.data(), params.mean_normalization, row_buf.data(),
+                            window_sum.data(), window_sq.data(), costs.data());
       return static_cast<float>(p * p);
     }
   }

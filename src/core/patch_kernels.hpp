@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 
 #include <opencv2/core.hpp>
 
@@ -42,12 +43,14 @@ inline void interpolateRow(const float* row, int base, float frac, int len, floa
 }
 
 /// Fast path: every template pixel valid and the right span [base, base+p]
-/// inside the image and valid. T and G are p*p, row-major.
-inline void sumsAllValid(const cv::Mat1f& right, int y0, int p, SampleSpan span, const float* T,
+/// inside the image and valid. `rows` points at column 0 of the patch's first
+/// right-image row, `stride` is the row pitch in floats. T and G are p*p,
+/// row-major.
+inline void sumsAllValid(const float* rows, size_t stride, int p, SampleSpan span, const float* T,
                          const float* G, bool want_cost, float* row_buf, ResidualSums& out) {
   float sd = 0, sdd = 0, sgd = 0;
   for (int y = 0; y < p; ++y) {
-    interpolateRow(right[y0 + y], span.base, span.frac, p, row_buf);
+    interpolateRow(rows + y * stride, span.base, span.frac, p, row_buf);
     const float* t = T + y * p;
     const float* g = G + y * p;
     for (int i = 0; i < p; ++i) {
@@ -69,13 +72,13 @@ inline void sumsAllValid(const cv::Mat1f& right, int y0, int p, SampleSpan span,
 /// interpolated row serves every sample instead of re-interpolating per sample.
 /// Requires the columns base_lo .. base_lo + p + step * (samples - 1) valid.
 /// Writes the mean squared residual (mean-normalised if asked) per sample.
-inline void windowCostsAllValid(const cv::Mat1f& right, int y0, int p, int base_lo, float frac,
+inline void windowCostsAllValid(const float* rows, size_t stride, int p, int base_lo, float frac,
                                 int samples, int step, const float* T, bool mean_normalization,
                                 float* row_buf, float* sum, float* sum_sq, float* costs) {
   const int len = p + step * (samples - 1);
   for (int j = 0; j < samples; ++j) sum[j] = sum_sq[j] = 0.f;
   for (int y = 0; y < p; ++y) {
-    interpolateRow(right[y0 + y], base_lo, frac, len, row_buf);
+    interpolateRow(rows + y * stride, base_lo, frac, len, row_buf);
     const float* t = T + y * p;
     for (int j = 0; j < samples; ++j) {
       const float* r = row_buf + step * (samples - 1 - j);
@@ -127,6 +130,35 @@ inline void sumsMasked(const cv::Mat1f& right, const cv::Mat1b& right_valid, int
   }
   out = {n, sd, sdd, sgd, sg, sgg};
 }
+
+/// The two all-valid inner loops, as one swappable set: a scalar reference for
+/// any patch size, and fixed-size versions (lane accumulators the compiler
+/// vectorises) built once with the baseline instruction set and once for AVX2.
+/// They take raw row pointers so the AVX2 translation unit calls no inline
+/// function shared with other units (a shared inline compiled for AVX2 could
+/// be picked by the linker for every caller).
+struct KernelSet {
+  const char* name;
+  void (*sums_all_valid)(const float* rows, size_t stride, int p, SampleSpan span, const float* T,
+                         const float* G, bool want_cost, float* row_buf, ResidualSums& out);
+  void (*window_costs)(const float* rows, size_t stride, int p, int base_lo, float frac, int samples,
+                       int step, const float* T, bool mean_normalization, float* row_buf,
+                       float* sum, float* sum_sq, float* costs);
+};
+
+enum class KernelIsa { Scalar, Baseline, Avx2 };
+
+/// The kernels for `patch_size` on `isa`; the scalar set where no fixed-size
+/// version exists for that size or the ISA was not built.
+const KernelSet& kernelsFor(int patch_size, KernelIsa isa);
+
+/// The best ISA this CPU runs; the environment variable BDIS_SIMD=off forces
+/// the scalar kernels and BDIS_SIMD=baseline the baseline ones (to compare
+/// results or rule the SIMD path out).
+KernelIsa bestKernelIsa();
+
+/// Whether `isa` was built into this library and runs on this CPU.
+bool kernelIsaAvailable(KernelIsa isa);
 
 }  // namespace detail
 }  // namespace bdis

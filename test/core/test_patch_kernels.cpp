@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <ostream>
 #include <vector>
 
@@ -58,7 +59,7 @@ TEST_P(WindowCosts, SharedRowsGiveThePerSampleCosts) {
   std::vector<float> sum(samples), sum_sq(samples), costs(samples);
   for (double u : {3.0, 12.25, 17.7, 30.999}) {
     const SampleSpan lo = sampleSpan(x0, static_cast<float>(u + c.half_width * c.step));
-    windowCostsAllValid(right, y0, c.p, lo.base, lo.frac, samples, c.step, T.data(),
+    windowCostsAllValid(right[y0], right.step1(), c.p, lo.base, lo.frac, samples, c.step, T.data(),
                         c.mean_normalization, row.data(), sum.data(), sum_sq.data(),
                         costs.data());
     for (int j = 0; j < samples; ++j) {
@@ -86,7 +87,7 @@ TEST(PatchKernels, AllValidSumsMatchTheMaskedPathWhenEverythingIsValid) {
   for (float& g : G) g = rng.uniform(-20.f, 20.f);
   const SampleSpan span = sampleSpan(x0, 9.37f);
   ResidualSums fast, masked;
-  sumsAllValid(right, y0, p, span, T.data(), G.data(), true, row.data(), fast);
+  sumsAllValid(right[y0], right.step1(), p, span, T.data(), G.data(), true, row.data(), fast);
   sumsMasked(right, valid, y0, p, span, T.data(), G.data(), M.data(), masked);
   EXPECT_EQ(fast.count, masked.count);
   EXPECT_NEAR(fast.diff, masked.diff, 1e-3 * std::fabs(masked.diff) + 1e-2);
@@ -94,6 +95,51 @@ TEST(PatchKernels, AllValidSumsMatchTheMaskedPathWhenEverythingIsValid) {
   EXPECT_NEAR(fast.g_diff, masked.g_diff, 1e-3 * std::fabs(masked.g_diff) + 1e-1);
   EXPECT_NEAR(referenceCost(right, T, x0, y0, p, 9.37, false), masked.diff_sq / masked.count,
               1e-3 * masked.diff_sq / masked.count);
+}
+
+// Every kernel set this library has (scalar, baseline fixed-size, AVX2 where
+// the CPU has it) against the double-precision reference, for each patch size
+// with a fixed-size version and one without.
+TEST(PatchKernels, EveryIsaAgreesWithTheReference) {
+  cv::RNG rng(5);
+  cv::Mat1f right(48, 200);
+  rng.fill(right, cv::RNG::UNIFORM, 0.f, 255.f);
+  int sets_checked = 0;
+  for (KernelIsa isa : {KernelIsa::Scalar, KernelIsa::Baseline, KernelIsa::Avx2}) {
+    if (!kernelIsaAvailable(isa)) continue;
+    for (int p : {4, 8, 12, 16, 24, 32, 10}) {
+      const KernelSet& k = kernelsFor(p, isa);
+      ++sets_checked;
+      const int x0 = 90, y0 = 7, n = 2, step = 1, samples = 2 * n + 1;
+      std::vector<float> T(static_cast<size_t>(p * p)), G(T.size());
+      for (float& t : T) t = rng.uniform(0.f, 255.f);
+      for (float& g : G) g = rng.uniform(-30.f, 30.f);
+      std::vector<float> row(static_cast<size_t>(p + 2 * n * step + 2));
+      std::vector<float> sum(samples), sum_sq(samples), costs(samples);
+      for (double u : {2.0, 11.3, 25.75}) {
+        const SampleSpan span = sampleSpan(x0, static_cast<float>(u));
+        ResidualSums r;
+        k.sums_all_valid(right[y0], right.step1(), p, span, T.data(), G.data(), true, row.data(), r);
+        const double want = referenceCost(right, T, x0, y0, p, u, false);
+        EXPECT_EQ(r.count, p * p) << k.name << " p=" << p;
+        EXPECT_NEAR(r.diff_sq / r.count, want, 2e-4 * want) << k.name << " p=" << p << " u=" << u;
+        const SampleSpan lo = sampleSpan(x0, static_cast<float>(u + n * step));
+        k.window_costs(right[y0], right.step1(), p, lo.base, lo.frac, samples, step, T.data(), true,
+                       row.data(), sum.data(), sum_sq.data(), costs.data());
+        for (int j = 0; j < samples; ++j) {
+          const double wj = referenceCost(right, T, x0, y0, p, u + (j - n) * step, true);
+          EXPECT_NEAR(costs[static_cast<size_t>(j)], wj, 2e-4 * wj)
+              << k.name << " p=" << p << " u=" << u << " sample " << j;
+        }
+      }
+    }
+  }
+  std::printf("[measured] kernel sets checked: %d (AVX2 %s)\n", sets_checked,
+              kernelIsaAvailable(KernelIsa::Avx2) ? "available" : "not available here");
+  EXPECT_GE(sets_checked, 14);
+  // The fixed-size sets exist where they should.
+  EXPECT_STREQ(kernelsFor(8, KernelIsa::Baseline).name, "baseline");
+  EXPECT_STREQ(kernelsFor(10, KernelIsa::Baseline).name, "scalar");
 }
 
 }  // namespace
