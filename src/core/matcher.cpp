@@ -356,6 +356,10 @@ void SearchPass::patchSums(float u, bool want_cost, ResidualSums& r) {
                             want_cost, row_buf.data(), r);
     r.g = cur.g_sum;
     r.g_sq = cur.g_sq_sum;
+  } else if (cur.left_all_valid && L.right_invalid(L.height, L.width) == 0) {
+    // Only the image edge is in the way (no black pixels in the right image).
+    detail::sumsClipped(L.right[cur.y0], rowStride(L.right), L.width, p, span, tmpl.data(),
+                        grad.data(), r);
   } else {
     detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, tmpl.data(), grad.data(),
                        tmpl_valid.data(), r);

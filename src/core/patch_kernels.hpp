@@ -4,6 +4,7 @@
 // serves the whole patch: each sample is a 2-tap filter with constant taps.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 
@@ -97,6 +98,35 @@ inline void windowCostsAllValid(const float* rows, size_t stride, int p, int bas
     const float mean = sum[j] * inv_n;
     costs[j] = sum_sq[j] * inv_n - (mean_normalization ? mean * mean : 0.f);
   }
+}
+
+/// Clipped path: every template pixel and every right pixel valid, but the
+/// span leaves the image (a match near or past the left or right edge): the
+/// sums run over the columns that stay inside, without per-pixel tests.
+inline void sumsClipped(const float* rows, size_t stride, int width, int p, SampleSpan span,
+                        const float* T, const float* G, ResidualSums& out) {
+  const int taps = span.frac > 0.f ? 1 : 0;
+  const int i0 = std::max(0, -span.base);
+  const int i1 = std::min(p, width - taps - span.base);
+  out = ResidualSums{};
+  if (i1 <= i0) return;
+  const float w0 = 1.f - span.frac, w1 = span.frac;
+  float sd = 0, sdd = 0, sgd = 0, sg = 0, sgg = 0;
+  for (int y = 0; y < p; ++y) {
+    const float* r = rows + y * stride + span.base;
+    const float* t = T + y * p;
+    const float* g = G + y * p;
+    for (int i = i0; i < i1; ++i) {
+      const float sample = taps ? w0 * r[i] + w1 * r[i + 1] : r[i];
+      const float d = sample - t[i];
+      sd += d;
+      sdd += d * d;
+      sgd += g[i] * d;
+      sg += g[i];
+      sgg += g[i] * g[i];
+    }
+  }
+  out = {static_cast<float>((i1 - i0) * p), sd, sdd, sgd, sg, sgg};
 }
 
 /// General path: pixels invalid in the template (M == 0), outside the image,

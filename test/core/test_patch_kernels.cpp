@@ -142,4 +142,31 @@ TEST(PatchKernels, EveryIsaAgreesWithTheReference) {
   EXPECT_STREQ(kernelsFor(10, KernelIsa::Baseline).name, "scalar");
 }
 
+TEST(PatchKernels, ClippedSumsMatchTheMaskedPathAtTheImageEdges) {
+  cv::RNG rng(9);
+  const int p = 8, y0 = 2, width = 60;
+  cv::Mat1f right(16, width);
+  rng.fill(right, cv::RNG::UNIFORM, 0.f, 255.f);
+  const cv::Mat1b valid(right.size(), uchar(1));
+  std::vector<float> T(p * p), G(p * p);
+  std::vector<uchar> M(p * p, 1);
+  for (float& t : T) t = rng.uniform(0.f, 255.f);
+  for (float& g : G) g = rng.uniform(-20.f, 20.f);
+  int partial = 0;
+  for (int x0 : {0, 3, 50, 52, 55}) {
+    for (float u : {-6.5f, -2.f, 0.f, 0.25f, 4.f, 7.75f, 12.f}) {
+      const SampleSpan span = sampleSpan(x0, u);
+      ResidualSums clipped, masked;
+      sumsClipped(right[y0], right.step1(), width, p, span, T.data(), G.data(), clipped);
+      sumsMasked(right, valid, y0, p, span, T.data(), G.data(), M.data(), masked);
+      EXPECT_EQ(clipped.count, masked.count) << "x0=" << x0 << " u=" << u;
+      EXPECT_NEAR(clipped.diff_sq, masked.diff_sq, 1e-4 * masked.diff_sq + 1e-3);
+      EXPECT_NEAR(clipped.g_diff, masked.g_diff, 1e-3 * std::fabs(masked.g_diff) + 1e-1);
+      EXPECT_NEAR(clipped.g_sq, masked.g_sq, 1e-4 * masked.g_sq + 1e-3);
+      if (masked.count > 0 && masked.count < p * p) ++partial;
+    }
+  }
+  EXPECT_GE(partial, 10);  // the cases do reach past the edges
+}
+
 }  // namespace
