@@ -285,6 +285,8 @@ void BdisStereoNodelet::onInit() {
   pub_depth_ = it_->advertiseCamera("depth/image_rect", 1, it_cb, it_cb, ros_cb, ros_cb);
   pub_confidence_ = it_->advertise("confidence", 1, it_cb, it_cb);
   pub_variance_ = it_->advertise("variance", 1, it_cb, it_cb);
+  // The disparity of `disparity` as a plain image, for viewers (rviz) that cannot show stereo_msgs.
+  pub_disparity_image_ = it_->advertise("disparity_image", 1, it_cb, it_cb);
 
   watchdog_timer_ = nh.createWallTimer(ros::WallDuration(0.5), &BdisStereoNodelet::watchdogCb, this);
   NODELET_INFO("bdis_stereo: %s sync, queue %d, %s cloud%s%s, preset %s", approximate_sync_ ? "approximate" : "exact",
@@ -296,7 +298,7 @@ void BdisStereoNodelet::connectCb() {
   std::lock_guard<std::mutex> lock(connect_mutex_);
   const bool wanted = pub_disparity_.getNumSubscribers() > 0 || pub_points_.getNumSubscribers() > 0 ||
                       pub_depth_.getNumSubscribers() > 0 || pub_confidence_.getNumSubscribers() > 0 ||
-                      pub_variance_.getNumSubscribers() > 0;
+                      pub_variance_.getNumSubscribers() > 0 || pub_disparity_image_.getNumSubscribers() > 0;
   if (!wanted && subscribed_) {
     sub_l_image_.unsubscribe();
     sub_r_image_.unsubscribe();
@@ -421,7 +423,11 @@ void BdisStereoNodelet::process(const Frame& frame) {
   const bool want_depth = pub_depth_.getNumSubscribers() > 0;
   const bool want_confidence = pub_confidence_.getNumSubscribers() > 0;
   const bool want_variance = pub_variance_.getNumSubscribers() > 0;
-  if (!(want_disparity || want_points || want_depth || want_confidence || want_variance)) return;
+  const bool want_disparity_image = pub_disparity_image_.getNumSubscribers() > 0;
+  if (!(want_disparity || want_points || want_depth || want_confidence || want_variance ||
+        want_disparity_image)) {
+    return;
+  }
 
   {
     std::lock_guard<std::mutex> lock(params_mutex_);
@@ -447,12 +453,13 @@ void BdisStereoNodelet::process(const Frame& frame) {
   matcher_.compute(lv, rv, result_);
 
   std_msgs::Header header = left.header;  // outputs: left image's stamp and frame
-  if (want_disparity) {
+  if (want_disparity || want_disparity_image) {
     stereo_msgs::DisparityImagePtr msg(new stereo_msgs::DisparityImage);
     msg->header = header;
     msg->image.header = header;
     fillDisparityImage(result_.disparity, camera, *msg);
-    pub_disparity_.publish(msg);
+    if (want_disparity_image) pub_disparity_image_.publish(sensor_msgs::ImagePtr(new Image(msg->image)));
+    if (want_disparity) pub_disparity_.publish(msg);
   }
   if (want_depth) {
     sensor_msgs::ImagePtr msg(new sensor_msgs::Image);

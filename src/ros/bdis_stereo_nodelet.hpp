@@ -92,7 +92,7 @@ class BdisStereoNodelet : public nodelet::Nodelet {
   // Outputs.
   ros::Publisher pub_disparity_, pub_points_;
   image_transport::CameraPublisher pub_depth_;
-  image_transport::Publisher pub_confidence_, pub_variance_;
+  image_transport::Publisher pub_confidence_, pub_variance_, pub_disparity_image_;
 
   // Matcher parameters: dynamic_reconfigure writes, the worker applies.
   boost::recursive_mutex config_mutex_;
