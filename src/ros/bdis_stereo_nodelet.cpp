@@ -15,6 +15,7 @@ namespace bdis_stereo {
 namespace {
 
 constexpr std::size_t kLatencyWindow = 512;
+constexpr double kRejectLogPeriod = 5.0;  // s
 
 // Matcher parameters <-> dynamic_reconfigure config, generically through the
 // config message so that every bdis::paramFields() entry maps by name.
@@ -382,14 +383,22 @@ void BdisStereoNodelet::workerLoop() {
 }
 
 void BdisStereoNodelet::reject(const std::string& what) {
+  bool log = false;
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++total_.rejected;
     last_error_ = what;
+    // Throttled per message: a second, different problem is reported at once,
+    // the same one at most every kRejectLogPeriod.
+    const ros::WallTime now = ros::WallTime::now();
+    if (reject_logged_.size() > 64) reject_logged_.clear();  // bounded
+    auto it = reject_logged_.find(what);
+    if (it == reject_logged_.end() || (now - it->second).toSec() >= kRejectLogPeriod) {
+      reject_logged_[what] = now;
+      log = true;
+    }
   }
-  // Throttled per message text would need a map; a 2 s throttle per call site
-  // still lets a fixed input be seen quickly in the log.
-  NODELET_ERROR_THROTTLE(2.0, "frame dropped: %s", what.c_str());
+  if (log) NODELET_ERROR("frame dropped: %s", what.c_str());
 }
 
 void BdisStereoNodelet::process(const Frame& frame) {

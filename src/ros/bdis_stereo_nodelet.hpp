@@ -10,6 +10,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <map>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -136,6 +137,7 @@ class BdisStereoNodelet : public nodelet::Nodelet {
   std::vector<double> latencies_ms_;  // ring buffer of recent latencies
   std::size_t latency_next_ = 0;
   std::string last_error_;
+  std::map<std::string, ros::WallTime> reject_logged_;
   ros::WallTime last_pair_time_;
   Counters at_last_pair_;
   std::unique_ptr<diagnostic_updater::Updater> updater_;
