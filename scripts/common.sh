@@ -16,6 +16,14 @@ log() { printf '\033[1m[bdis]\033[0m %s\n' "$*" >&2; }
 DEBIAN_PACKAGES=(
   catkin python3-catkin-pkg ros-base-dev libopencv-dev libeigen3-dev
   libgtest-dev googletest libbenchmark-dev
+  # ROS layer: nodelet, its build and run dependencies, launch and bag tools
+  libnodelet-dev libnodeletlib-dev libnodeletlib-tools pluginlib-dev libimage-transport-dev
+  libmessage-filters-dev libimage-geometry-dev libstereo-msgs-dev libtf2-dev libtf2-ros-dev
+  libdiagnostic-updater-dev python3-dynamic-reconfigure libdynamic-reconfigure-config-init-mutex-dev
+  rosbash python3-roslaunch python3-rosbag python3-rospy python3-yaml python3-numpy python3-opencv
+  # rostests: the test nodes are Python
+  librostest-dev python3-rostest python3-sensor-msgs python3-stereo-msgs python3-geometry-msgs
+  python3-std-msgs python3-tf2-msgs python3-diagnostic-msgs python3-rosgraph-msgs
 )
 
 sudo_if_needed() {
@@ -47,9 +55,25 @@ install_dependencies() {
   fi
 }
 
-build_package() {
+# The package in the workspace: a directory of links to the repository's
+# top-level entries, all but the workspace itself. (A link to the whole
+# repository would put _ws/ inside its own package: a symlink loop through
+# which roslaunch and rosrun find every file many times and refuse to run.)
+link_package_source() {
+  local pkg="$WS_DIR/src/bdis_stereo" ws_real entry
   mkdir -p "$WS_DIR/src"
-  ln -sfn "$REPO_DIR" "$WS_DIR/src/bdis_stereo"
+  [ -L "$pkg" ] && rm "$pkg"
+  mkdir -p "$pkg"
+  find "$pkg" -maxdepth 1 -type l ! -exec test -e {} \; -delete  # entries gone from the repo
+  ws_real="$(cd "$WS_DIR" && pwd -P)"
+  for entry in "$REPO_DIR"/*; do
+    [ "$(cd "$entry" 2>/dev/null && pwd -P)" = "$ws_real" ] && continue
+    ln -sfn "$entry" "$pkg/$(basename "$entry")"
+  done
+}
+
+build_package() {
+  link_package_source
   if [ -f /opt/ros/noetic/setup.bash ]; then
     set +u; source /opt/ros/noetic/setup.bash; set -u
   fi

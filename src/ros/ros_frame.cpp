@@ -1,0 +1,322 @@
+#include "ros_frame.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include <image_geometry/pinhole_camera_model.h>
+#include <opencv2/imgproc.hpp>
+#include <sensor_msgs/image_encodings.h>
+
+#include "bdis_stereo/matcher.hpp"
+
+namespace bdis_stereo {
+namespace enc = sensor_msgs::image_encodings;
+
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+int channelsOf(const std::string& encoding) {
+  if (encoding == enc::MONO8) return 1;
+  if (encoding == enc::BGR8 || encoding == enc::RGB8) return 3;
+  if (encoding == enc::BGRA8 || encoding == enc::RGBA8) return 4;
+  return 0;
+}
+
+std::string num(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+// "" when all 12 entries of P are finite, else the index of the first bad one.
+std::string checkProjection(const sensor_msgs::CameraInfo& info, const char* side) {
+  for (int i = 0; i < 12; ++i) {
+    if (!std::isfinite(info.P[i])) {
+      return std::string(side) + " camera_info P[" + std::to_string(i) + "] is " + num(info.P[i]) +
+             ": the calibration is invalid; republish a rectified camera_info";
+    }
+  }
+  if (!(info.P[0] > 0.0) || !(info.P[5] > 0.0)) {
+    return std::string(side) + " camera_info P[0] (fx) = " + num(info.P[0]) + ", P[5] (fy) = " +
+           num(info.P[5]) +
+           ": focal lengths must be > 0; is the camera calibrated (an all-zero camera_info means "
+           "uncalibrated)?";
+  }
+  if (info.P[10] != 1.0) {
+    return std::string(side) + " camera_info P[10] = " + num(info.P[10]) +
+           " (expected 1): the projection matrix is not a rectified pinhole P";
+  }
+  return "";
+}
+
+}  // namespace
+
+bool isSupportedEncoding(const std::string& encoding) { return channelsOf(encoding) > 0; }
+
+std::string checkImage(const sensor_msgs::Image& image, const char* side, std::size_t max_pixels) {
+  const std::string s(side);
+  if (image.width == 0 || image.height == 0 || image.data.empty()) {
+    return s + " image is empty (" + std::to_string(image.width) + "x" +
+           std::to_string(image.height) + ", " + std::to_string(image.data.size()) +
+           " bytes): is the camera driver running?";
+  }
+  if (!isSupportedEncoding(image.encoding)) {
+    return s + " image has encoding '" + image.encoding +
+           "': supported are mono8, bgr8, rgb8, bgra8, rgba8 (8-bit); convert 16-bit or Bayer "
+           "images first (e.g. image_proc)";
+  }
+  if (static_cast<std::size_t>(image.width) * image.height > max_pixels) {
+    return s + " image is " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+           ", more than max_image_pixels = " + std::to_string(max_pixels) +
+           ": downscale the images (image_proc/resize) or raise max_image_pixels";
+  }
+  if (static_cast<int>(image.width) < bdis::kMinImageSide ||
+      static_cast<int>(image.height) < bdis::kMinImageSide) {
+    return s + " image is " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+           ": each side must be at least " + std::to_string(bdis::kMinImageSide) + " px";
+  }
+  const std::size_t row_bytes = static_cast<std::size_t>(image.width) * channelsOf(image.encoding);
+  if (image.step < row_bytes ||
+      image.data.size() < static_cast<std::size_t>(image.step) * image.height) {
+    return s + " image message is inconsistent: step = " + std::to_string(image.step) +
+           " for width " + std::to_string(image.width) + " (" + image.encoding + ") and " +
+           std::to_string(image.data.size()) + " bytes of data for height " +
+           std::to_string(image.height);
+  }
+  return "";
+}
+
+std::string checkImagePair(const sensor_msgs::Image& left, const sensor_msgs::Image& right) {
+  if (left.width != right.width || left.height != right.height) {
+    return "left image is " + std::to_string(left.width) + "x" + std::to_string(left.height) +
+           " but right image is " + std::to_string(right.width) + "x" +
+           std::to_string(right.height) +
+           ": both must be rectified to the same size (check the topics and the rectification)";
+  }
+  return "";
+}
+
+std::string stereoCameraFromInfo(const sensor_msgs::CameraInfo& left,
+                                 const sensor_msgs::CameraInfo& right, int image_width,
+                                 int image_height, bdis::StereoCamera& camera) {
+  for (const auto* info : {&left, &right}) {
+    const char* side = info == &left ? "left" : "right";
+    std::string err = checkProjection(*info, side);
+    if (!err.empty()) return err;
+    if (info->binning_x > 64 || info->binning_y > 64) {
+      return std::string(side) + " camera_info binning " + std::to_string(info->binning_x) + "x" +
+             std::to_string(info->binning_y) + " is not plausible";
+    }
+  }
+  image_geometry::PinholeCameraModel lm, rm;
+  try {
+    lm.fromCameraInfo(left);
+    rm.fromCameraInfo(right);
+  } catch (const std::exception& e) {
+    return std::string("camera_info rejected by image_geometry: ") + e.what();
+  }
+  for (const auto* model : {&lm, &rm}) {
+    const char* side = model == &lm ? "left" : "right";
+    const cv::Size size = model->reducedResolution();
+    if (size.width == 0 && size.height == 0) continue;  // camera_info gives no size
+    if (size.width != image_width || size.height != image_height) {
+      return std::string(side) + " camera_info is for " + std::to_string(size.width) + "x" +
+             std::to_string(size.height) + " (after binning/ROI) but the images are " +
+             std::to_string(image_width) + "x" + std::to_string(image_height) +
+             ": does the camera_info belong to these images?";
+    }
+  }
+  const double fx = lm.fx();
+  if (std::abs(rm.fx() - fx) > 1e-3 * fx || std::abs(rm.fy() - lm.fy()) > 1e-3 * lm.fy()) {
+    return "left and right camera_info focal lengths differ (fx " + num(fx) + " vs " +
+           num(rm.fx()) + ", fy " + num(lm.fy()) + " vs " + num(rm.fy()) +
+           "): the pair is not rectified as a stereo pair";
+  }
+  const double right_tx = rm.Tx();
+  if (right_tx == 0.0) {
+    return "right camera_info P[3] is 0: is the pair rectified as a stereo pair? "
+           "(P[3] = Tx = -fx * baseline, negative for the right camera)";
+  }
+  // Baseline from the difference of the two P[3] (left P[3] is 0 for the usual
+  // left-reference pair, as image_geometry assumes).
+  const double baseline = (lm.Tx() - right_tx) / fx;
+  if (!(baseline > 0.0)) {
+    return "right camera_info P[3] = " + num(right_tx) + " gives baseline " + num(baseline) +
+           " <= 0: are the cameras swapped? (the right camera's P[3] must be -fx * baseline < 0)";
+  }
+  camera.fx = fx;
+  camera.fy = lm.fy();
+  camera.cx = lm.cx();
+  camera.cy = lm.cy();
+  camera.cx_right = rm.cx();
+  camera.baseline = baseline;
+  try {
+    camera.validate();
+  } catch (const std::invalid_argument& e) {
+    return std::string("camera model from camera_info is invalid: ") + e.what();
+  }
+  return "";
+}
+
+cv::Mat matcherView(const sensor_msgs::Image& image, cv::Mat& buffer) {
+  const int channels = channelsOf(image.encoding);
+  const int type = CV_MAKETYPE(CV_8U, channels);
+  const cv::Mat wrapped(static_cast<int>(image.height), static_cast<int>(image.width), type,
+                        const_cast<uint8_t*>(image.data.data()), image.step);
+  if (image.encoding == enc::MONO8 || image.encoding == enc::BGR8) return wrapped;
+  int code = cv::COLOR_RGB2BGR;
+  if (image.encoding == enc::BGRA8) code = cv::COLOR_BGRA2BGR;
+  if (image.encoding == enc::RGBA8) code = cv::COLOR_RGBA2BGR;
+  cv::cvtColor(wrapped, buffer, code);
+  return buffer;
+}
+
+void fillFloatImage(const cv::Mat& image, sensor_msgs::Image& msg) {
+  CV_Assert(image.type() == CV_32FC1);
+  msg.height = image.rows;
+  msg.width = image.cols;
+  msg.encoding = enc::TYPE_32FC1;
+  msg.is_bigendian = 0;
+  msg.step = image.cols * sizeof(float);
+  msg.data.resize(static_cast<std::size_t>(msg.step) * msg.height);
+  cv::Mat out(image.rows, image.cols, CV_32FC1, msg.data.data(), msg.step);
+  image.copyTo(out);
+}
+
+void fillDisparityImage(const cv::Mat& disparity, const bdis::StereoCamera& camera,
+                        stereo_msgs::DisparityImage& msg) {
+  CV_Assert(disparity.type() == CV_32FC1);
+  sensor_msgs::Image& img = msg.image;
+  img.height = disparity.rows;
+  img.width = disparity.cols;
+  img.encoding = enc::TYPE_32FC1;
+  img.is_bigendian = 0;
+  img.step = disparity.cols * sizeof(float);
+  img.data.resize(static_cast<std::size_t>(img.step) * img.height);
+  const float offset = static_cast<float>(camera.cx - camera.cx_right);
+  const float invalid = -1.0f;  // min_disparity - 1
+  float max_d = 0.0f;
+  int x0 = disparity.cols, y0 = disparity.rows, x1 = -1, y1 = -1;
+  for (int y = 0; y < disparity.rows; ++y) {
+    const float* d = disparity.ptr<float>(y);
+    float* out = reinterpret_cast<float*>(img.data.data() + static_cast<std::size_t>(y) * img.step);
+    bool row_valid = false;
+    for (int x = 0; x < disparity.cols; ++x) {
+      const float shifted = d[x] - offset;
+      if (d[x] >= 0.0f && shifted > 0.0f) {
+        out[x] = shifted;
+        max_d = std::max(max_d, shifted);
+        x0 = std::min(x0, x);
+        x1 = std::max(x1, x);
+        row_valid = true;
+      } else {
+        out[x] = invalid;
+      }
+    }
+    if (row_valid) {
+      y0 = std::min(y0, y);
+      y1 = y;
+    }
+  }
+  msg.f = static_cast<float>(camera.fx);
+  msg.T = static_cast<float>(camera.baseline);
+  msg.min_disparity = 0.0f;
+  msg.max_disparity = std::ceil(max_d);
+  msg.delta_d = 1.0f / 16.0f;
+  if (x1 >= 0) {
+    msg.valid_window.x_offset = x0;
+    msg.valid_window.y_offset = y0;
+    msg.valid_window.width = x1 - x0 + 1;
+    msg.valid_window.height = y1 - y0 + 1;
+  } else {
+    msg.valid_window = sensor_msgs::RegionOfInterest();
+  }
+}
+
+void fillDepthImage(const cv::Mat& disparity, const bdis::StereoCamera& camera,
+                    sensor_msgs::Image& msg) {
+  msg.height = disparity.rows;
+  msg.width = disparity.cols;
+  msg.encoding = enc::TYPE_32FC1;
+  msg.is_bigendian = 0;
+  msg.step = disparity.cols * sizeof(float);
+  msg.data.resize(static_cast<std::size_t>(msg.step) * msg.height);
+  cv::Mat out(disparity.rows, disparity.cols, CV_32FC1, msg.data.data(), msg.step);
+  bdis::disparityToDepth(disparity, camera, out);  // same size and type: writes in place
+}
+
+void fillPointCloud(const cv::Mat& disparity, const bdis::StereoCamera& camera,
+                    const cv::Mat& left_bgr, bool organized, const RigidTransform* transform,
+                    cv::Mat& points, sensor_msgs::PointCloud2& msg) {
+  const bool rgb = !left_bgr.empty() && left_bgr.type() == CV_8UC3 &&
+                   left_bgr.size() == disparity.size();
+  bdis::disparityToPoints(disparity, camera, points);
+  const uint32_t point_step = rgb ? 16 : 12;
+  if (msg.fields.size() != (rgb ? 4u : 3u)) {
+    msg.fields.clear();
+    const char* names[] = {"x", "y", "z", "rgb"};
+    for (uint32_t i = 0; i < (rgb ? 4u : 3u); ++i) {
+      sensor_msgs::PointField f;
+      f.name = names[i];
+      f.offset = 4 * i;
+      f.datatype = sensor_msgs::PointField::FLOAT32;
+      f.count = 1;
+      msg.fields.push_back(f);
+    }
+  }
+  msg.is_bigendian = false;
+  msg.point_step = point_step;
+  std::size_t count = static_cast<std::size_t>(disparity.rows) * disparity.cols;
+  if (!organized) {
+    count = 0;
+    for (int y = 0; y < points.rows; ++y) {
+      const cv::Vec3f* p = points.ptr<cv::Vec3f>(y);
+      for (int x = 0; x < points.cols; ++x) count += std::isnan(p[x][2]) ? 0 : 1;
+    }
+  }
+  msg.data.resize(count * point_step);
+  uint8_t* out = msg.data.data();
+  for (int y = 0; y < points.rows; ++y) {
+    const cv::Vec3f* p = points.ptr<cv::Vec3f>(y);
+    const cv::Vec3b* c = rgb ? left_bgr.ptr<cv::Vec3b>(y) : nullptr;
+    for (int x = 0; x < points.cols; ++x) {
+      float xyz[3] = {p[x][0], p[x][1], p[x][2]};
+      const bool valid = !std::isnan(xyz[2]);
+      if (!valid && !organized) continue;
+      if (valid && transform) {
+        const double* r = transform->r;
+        const double* t = transform->t;
+        const float a = xyz[0], b = xyz[1], z = xyz[2];
+        xyz[0] = static_cast<float>(r[0] * a + r[1] * b + r[2] * z + t[0]);
+        xyz[1] = static_cast<float>(r[3] * a + r[4] * b + r[5] * z + t[1]);
+        xyz[2] = static_cast<float>(r[6] * a + r[7] * b + r[8] * z + t[2]);
+      }
+      if (!valid) xyz[0] = xyz[1] = xyz[2] = kNaN;
+      std::memcpy(out, xyz, 12);
+      if (rgb) {
+        const uint32_t packed = (static_cast<uint32_t>(c[x][2]) << 16) |
+                                (static_cast<uint32_t>(c[x][1]) << 8) | c[x][0];
+        std::memcpy(out + 12, &packed, 4);
+      }
+      out += point_step;
+    }
+  }
+  if (organized) {
+    msg.height = disparity.rows;
+    msg.width = disparity.cols;
+    msg.is_dense = false;
+  } else {
+    msg.height = 1;
+    msg.width = static_cast<uint32_t>(count);
+    msg.is_dense = true;
+  }
+  msg.row_step = msg.width * point_step;
+}
+
+}  // namespace bdis_stereo

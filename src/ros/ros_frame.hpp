@@ -1,0 +1,89 @@
+// Per-frame validation and message conversion of the bdis_stereo nodelet.
+// Needs ROS message types and image_geometry but no master, no node handle and
+// no callbacks, so test_ros_frame checks every message and conversion offline.
+// Nothing here throws for bad input: checks return a message saying what is
+// wrong and how to fix it ("" when the frame is fine).
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+#include <opencv2/core.hpp>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <stereo_msgs/DisparityImage.h>
+
+#include "bdis_stereo/geometry.hpp"
+
+namespace bdis_stereo {
+
+/// Default for the `max_image_pixels` parameter: frames with more pixels are
+/// refused (bounded memory and time). 4096 x 4096.
+constexpr std::size_t kDefaultMaxImagePixels = 4096u * 4096u;
+
+/// mono8, bgr8, rgb8, bgra8, rgba8.
+bool isSupportedEncoding(const std::string& encoding);
+
+/// Checks one input image: not empty, at least bdis::kMinImageSide per side,
+/// at most `max_pixels` pixels, a supported encoding, and `step`/`data`
+/// consistent with width, height and encoding. `side` is "left" or "right".
+std::string checkImage(const sensor_msgs::Image& image, const char* side, std::size_t max_pixels);
+
+/// Checks that the two images can be matched as a pair (equal sizes).
+std::string checkImagePair(const sensor_msgs::Image& left, const sensor_msgs::Image& right);
+
+/// Builds the rectified stereo model from the two camera_infos (image_geometry,
+/// so binning and ROI are applied) and checks it against the image size:
+/// finite projection matrices, fx, fy > 0 in both, equal fx, camera_info size
+/// equal to the image size (when the camera_info gives one), right P[3] < 0
+/// (a positive baseline). Differing frame_ids are accepted. On success fills
+/// `camera` (baseline in the unit of P[3] / fx, metres by ROS convention) and
+/// returns "".
+std::string stereoCameraFromInfo(const sensor_msgs::CameraInfo& left,
+                                 const sensor_msgs::CameraInfo& right, int image_width,
+                                 int image_height, bdis::StereoCamera& camera);
+
+/// A view of a checked image in what the matcher takes: CV_8UC1 (mono8) or
+/// CV_8UC3 BGR. mono8 and bgr8 are wrapped without a copy (the view lives as
+/// long as `image`); rgb8, bgra8, rgba8 are converted into `buffer`, which is
+/// reused from frame to frame.
+cv::Mat matcherView(const sensor_msgs::Image& image, cv::Mat& buffer);
+
+/// Writes a CV_32FC1 image into `msg` (32FC1, header untouched); `msg.data`
+/// keeps its capacity when the size is unchanged.
+void fillFloatImage(const cv::Mat& image, sensor_msgs::Image& msg);
+
+/// stereo_msgs/DisparityImage as stereo_image_proc fills it (header untouched):
+/// f = fx, T = baseline, disparity d' = d - (cx - cx_right) so that
+/// Z = f * T / d' holds whatever the principal-point offset; pixels without an
+/// estimate, and those at or beyond infinity (d' <= 0), are set to
+/// min_disparity - 1 = -1. min_disparity = 0, max_disparity = the largest
+/// value in this frame (0 if none), delta_d = 1/16 (nominal: the matcher's
+/// output is continuous), valid_window = bounding box of the pixels with an
+/// estimate (all zero when there is none).
+void fillDisparityImage(const cv::Mat& disparity, const bdis::StereoCamera& camera,
+                        stereo_msgs::DisparityImage& msg);
+
+/// REP 118 depth image (32FC1, unit of the baseline, NaN where unknown),
+/// computed straight into `msg.data`.
+void fillDepthImage(const cv::Mat& disparity, const bdis::StereoCamera& camera,
+                    sensor_msgs::Image& msg);
+
+/// A rigid transform p' = R p + t (row-major R), applied to the cloud.
+struct RigidTransform {
+  double r[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  double t[3] = {0, 0, 0};
+};
+
+/// sensor_msgs/PointCloud2 with float32 x, y, z and, when `left_bgr` is a
+/// CV_8UC3 BGR image, a packed float32 rgb field (PCL convention).
+/// organized: height x width of the image, NaN for pixels without an
+/// estimate, is_dense = false; otherwise height 1 and only valid points,
+/// is_dense = true. `points` is a reused CV_32FC3 scratch buffer; `transform`
+/// (may be null) maps the camera-frame points into another frame. Header untouched.
+void fillPointCloud(const cv::Mat& disparity, const bdis::StereoCamera& camera,
+                    const cv::Mat& left_bgr, bool organized, const RigidTransform* transform,
+                    cv::Mat& points, sensor_msgs::PointCloud2& msg);
+
+}  // namespace bdis_stereo

@@ -1,0 +1,178 @@
+"""Helpers of the bdis_stereo rostests: exact synthetic stereo pairs, message
+builders, and subscribers that wait for a condition with a timeout."""
+import threading
+import time
+
+import cv2
+import numpy as np
+import rospy
+from rosgraph_msgs.msg import Log
+from sensor_msgs.msg import CameraInfo, Image
+
+# Camera of the synthetic pairs: Z = FX * BASELINE / d.
+W, H = 192, 144
+FX = 200.0
+CX, CY = 96.0, 72.0
+BASELINE = 0.1
+DISPARITY = 8
+LEFT_FRAME = "cam_left_optical"
+RIGHT_FRAME = "cam_right_optical"
+
+
+def make_pair(seed=1, colour=True, d=DISPARITY, w=W, h=H):
+    """Random smooth texture; right(x) = left(x + d), so the left disparity is
+    exactly d wherever x >= d (left of that the point is outside the right image)."""
+    rng = np.random.default_rng(seed)
+    tex = rng.integers(0, 256, (h, w + d)).astype(np.float32)
+    tex = cv2.GaussianBlur(tex, (0, 0), 1.2)
+    tex = cv2.normalize(tex, None, 20, 235, cv2.NORM_MINMAX).astype(np.uint8)
+    left, right = tex[:, :w].copy(), tex[:, d:d + w].copy()
+    if colour:
+        # A colour that differs per channel, so rgb in the cloud is checkable.
+        left = np.dstack([left, 255 - left, np.full_like(left, 77)])
+        right = np.dstack([right, 255 - right, np.full_like(right, 77)])
+    return left, right
+
+
+def image_msg(arr, stamp, frame_id=LEFT_FRAME, encoding=None):
+    msg = Image()
+    msg.header.stamp = stamp
+    msg.header.frame_id = frame_id
+    msg.height, msg.width = arr.shape[:2]
+    channels = 1 if arr.ndim == 2 else arr.shape[2]
+    msg.encoding = encoding or {1: "mono8", 3: "bgr8", 4: "bgra8"}[channels]
+    msg.step = msg.width * channels * arr.dtype.itemsize
+    msg.data = arr.tobytes()
+    return msg
+
+
+def info_msg(stamp, frame_id=LEFT_FRAME, tx=0.0, cx=CX, w=W, h=H, fx=FX):
+    msg = CameraInfo()
+    msg.header.stamp = stamp
+    msg.header.frame_id = frame_id
+    msg.width, msg.height = w, h
+    msg.distortion_model = "plumb_bob"
+    msg.D = [0.0] * 5
+    msg.K = [fx, 0, cx, 0, fx, CY, 0, 0, 1]
+    msg.R = [1, 0, 0, 0, 1, 0, 0, 0, 1]
+    msg.P = [fx, 0, cx, tx, 0, fx, CY, 0, 0, 0, 1, 0]
+    return msg
+
+
+def wait_for(condition, timeout, what):
+    """Polls `condition` until true; raises AssertionError naming `what` on timeout."""
+    deadline = time.time() + timeout
+    while time.time() < deadline and not rospy.is_shutdown():
+        value = condition()
+        if value:
+            return value
+        time.sleep(0.02)
+    raise AssertionError("timed out after %.1f s waiting for %s" % (timeout, what))
+
+
+def publish_until(publish, condition, timeout, what, period=0.5):
+    """Publishes (again every `period` s) until `condition` holds: robust against
+    a subscription that is still being set up when the first copy goes out."""
+    deadline = time.time() + timeout
+    next_publish = 0.0
+    while time.time() < deadline and not rospy.is_shutdown():
+        if time.time() >= next_publish:
+            publish()
+            next_publish = time.time() + period
+        value = condition()
+        if value:
+            return value
+        time.sleep(0.02)
+    raise AssertionError("timed out after %.1f s waiting for %s" % (timeout, what))
+
+
+class Collector(object):
+    """Keeps every message of a topic."""
+
+    def __init__(self, topic, msg_type):
+        self.lock = threading.Lock()
+        self.msgs = []
+        self.sub = rospy.Subscriber(topic, msg_type, self._cb, queue_size=20)
+
+    def _cb(self, msg):
+        with self.lock:
+            self.msgs.append(msg)
+
+    def with_stamp(self, stamp):
+        with self.lock:
+            for m in self.msgs:
+                if m.header.stamp == stamp:
+                    return m
+        return None
+
+    def wait_stamp(self, stamp, timeout=20.0):
+        return wait_for(lambda: self.with_stamp(stamp), timeout,
+                        "%s with stamp %.3f" % (self.sub.name, stamp.to_sec()))
+
+    def count(self):
+        with self.lock:
+            return len(self.msgs)
+
+    def close(self):
+        self.sub.unregister()
+
+
+class RosoutWatcher(object):
+    """Collects /rosout messages of one node (all nodes if name is None)."""
+
+    def __init__(self, node=None):
+        self.node = node
+        self.lock = threading.Lock()
+        self.lines = []
+        self.sub = rospy.Subscriber("/rosout", Log, self._cb, queue_size=100)
+
+    def _cb(self, msg):
+        if self.node is None or msg.name == self.node:
+            with self.lock:
+                self.lines.append((msg.level, msg.msg))
+
+    def find(self, text):
+        with self.lock:
+            return [m for _, m in self.lines if text in m]
+
+    def wait_text(self, text, timeout=15.0):
+        return wait_for(lambda: self.find(text), timeout, "a log line containing %r" % text)
+
+
+class StereoInput(object):
+    """The four input topics of the nodelet in namespace `ns`."""
+
+    def __init__(self, ns):
+        self.pubs = [rospy.Publisher(ns + t, m, queue_size=10) for t, m in (
+            ("/left/image_rect", Image), ("/right/image_rect", Image),
+            ("/left/camera_info", CameraInfo), ("/right/camera_info", CameraInfo))]
+
+    def connections(self):
+        return [p.get_num_connections() for p in self.pubs]
+
+    def wait_connected(self, timeout=15.0):
+        wait_for(lambda: all(c > 0 for c in self.connections()), timeout,
+                 "the nodelet to subscribe to all four inputs")
+
+    def publish(self, left, right, left_info, right_info):
+        for p, m in zip(self.pubs, (left, right, left_info, right_info)):
+            p.publish(m)
+
+    def publish_pair(self, stamp, left_arr, right_arr, right_tx=-FX * BASELINE, cx_right=CX,
+                     right_stamp=None):
+        rs = right_stamp or stamp
+        self.publish(image_msg(left_arr, stamp, LEFT_FRAME), image_msg(right_arr, rs, RIGHT_FRAME),
+                     info_msg(stamp, LEFT_FRAME), info_msg(rs, RIGHT_FRAME, tx=right_tx, cx=cx_right))
+
+
+def float_image(msg):
+    assert msg.encoding == "32FC1", msg.encoding
+    return np.frombuffer(msg.data, dtype=np.float32).reshape(msg.height, msg.step // 4)[:, :msg.width]
+
+
+def cloud_array(msg):
+    """Structured numpy array of a PointCloud2 with float32 x, y, z [, rgb]."""
+    names = [f.name for f in msg.fields]
+    dtype = np.dtype({"names": names, "formats": ["<f4"] * len(names),
+                      "offsets": [f.offset for f in msg.fields], "itemsize": msg.point_step})
+    return np.frombuffer(msg.data, dtype=dtype).reshape(msg.height, msg.width)

@@ -1,0 +1,254 @@
+// The nodelet's per-frame validation and message conversion, without a master.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include <opencv2/core.hpp>
+#include <sensor_msgs/image_encodings.h>
+
+#include "../../src/ros/ros_frame.hpp"
+#include "bdis_stereo/matcher.hpp"
+
+using bdis_stereo::checkImage;
+using bdis_stereo::checkImagePair;
+using bdis_stereo::stereoCameraFromInfo;
+
+namespace {
+
+sensor_msgs::Image makeImage(int w, int h, const std::string& encoding, int channels) {
+  sensor_msgs::Image img;
+  img.width = w;
+  img.height = h;
+  img.encoding = encoding;
+  img.step = w * channels;
+  img.data.assign(static_cast<size_t>(img.step) * h, 100);
+  return img;
+}
+
+sensor_msgs::CameraInfo makeInfo(double fx, double cx, double cy, double tx, int w = 64, int h = 48) {
+  sensor_msgs::CameraInfo info;
+  info.width = w;
+  info.height = h;
+  info.header.frame_id = "left_optical";
+  info.P = {fx, 0, cx, tx, 0, fx, cy, 0, 0, 0, 1, 0};
+  info.K = {fx, 0, cx, 0, fx, cy, 0, 0, 1};
+  info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  info.distortion_model = "plumb_bob";
+  info.D = {0, 0, 0, 0, 0};
+  return info;
+}
+
+bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+
+}  // namespace
+
+TEST(RosFrameCheckImage, AcceptsSupportedEncodings) {
+  EXPECT_EQ(checkImage(makeImage(64, 48, "mono8", 1), "left", 1 << 20), "");
+  EXPECT_EQ(checkImage(makeImage(64, 48, "bgr8", 3), "left", 1 << 20), "");
+  EXPECT_EQ(checkImage(makeImage(64, 48, "rgb8", 3), "left", 1 << 20), "");
+  EXPECT_EQ(checkImage(makeImage(64, 48, "bgra8", 4), "left", 1 << 20), "");
+  EXPECT_EQ(checkImage(makeImage(64, 48, "rgba8", 4), "left", 1 << 20), "");
+}
+
+TEST(RosFrameCheckImage, SaysWhatIsWrong) {
+  sensor_msgs::Image empty;
+  EXPECT_TRUE(contains(checkImage(empty, "left", 1 << 20), "left image is empty"));
+  EXPECT_TRUE(contains(checkImage(makeImage(64, 48, "mono16", 2), "right", 1 << 20),
+                       "right image has encoding 'mono16'"));
+  EXPECT_TRUE(contains(checkImage(makeImage(64, 48, "mono8", 1), "left", 1000),
+                       "more than max_image_pixels = 1000"));
+  EXPECT_TRUE(contains(checkImage(makeImage(16, 48, "mono8", 1), "left", 1 << 20), "at least 32 px"));
+  sensor_msgs::Image short_data = makeImage(64, 48, "bgr8", 3);
+  short_data.data.resize(100);
+  EXPECT_TRUE(contains(checkImage(short_data, "left", 1 << 20), "inconsistent"));
+  sensor_msgs::Image short_step = makeImage(64, 48, "bgr8", 3);
+  short_step.step = 64;
+  EXPECT_TRUE(contains(checkImage(short_step, "left", 1 << 20), "inconsistent"));
+}
+
+TEST(RosFrameCheckImage, PairSizesMustMatch) {
+  EXPECT_EQ(checkImagePair(makeImage(64, 48, "mono8", 1), makeImage(64, 48, "bgr8", 3)), "");
+  const std::string err = checkImagePair(makeImage(64, 48, "mono8", 1), makeImage(64, 40, "mono8", 1));
+  EXPECT_TRUE(contains(err, "left image is 64x48 but right image is 64x40")) << err;
+}
+
+TEST(RosFrameCamera, BuildsTheModelFromTheCameraInfos) {
+  bdis::StereoCamera cam;
+  sensor_msgs::CameraInfo l = makeInfo(520, 32, 24, 0), r = makeInfo(520, 30, 24, -260);
+  r.header.frame_id = "right_optical";  // differing frames are normal
+  ASSERT_EQ(stereoCameraFromInfo(l, r, 64, 48, cam), "");
+  EXPECT_DOUBLE_EQ(cam.fx, 520);
+  EXPECT_DOUBLE_EQ(cam.fy, 520);
+  EXPECT_DOUBLE_EQ(cam.cx, 32);
+  EXPECT_DOUBLE_EQ(cam.cx_right, 30);
+  EXPECT_DOUBLE_EQ(cam.cy, 24);
+  EXPECT_DOUBLE_EQ(cam.baseline, 0.5);
+}
+
+TEST(RosFrameCamera, AppliesBinning) {
+  bdis::StereoCamera cam;
+  sensor_msgs::CameraInfo l = makeInfo(520, 64, 48, 0, 128, 96), r = makeInfo(520, 64, 48, -260, 128, 96);
+  l.binning_x = l.binning_y = r.binning_x = r.binning_y = 2;
+  ASSERT_EQ(stereoCameraFromInfo(l, r, 64, 48, cam), "");
+  EXPECT_DOUBLE_EQ(cam.fx, 260);
+  EXPECT_DOUBLE_EQ(cam.cx, 32);
+  EXPECT_DOUBLE_EQ(cam.baseline, 0.5);
+}
+
+TEST(RosFrameCamera, SaysWhatIsWrong) {
+  bdis::StereoCamera cam;
+  const sensor_msgs::CameraInfo l = makeInfo(520, 32, 24, 0);
+  std::string err = stereoCameraFromInfo(l, makeInfo(520, 32, 24, 0), 64, 48, cam);
+  EXPECT_TRUE(contains(err, "right camera_info P[3] is 0: is the pair rectified as a stereo pair?")) << err;
+  err = stereoCameraFromInfo(l, makeInfo(520, 32, 24, 260), 64, 48, cam);
+  EXPECT_TRUE(contains(err, "are the cameras swapped?")) << err;
+  sensor_msgs::CameraInfo nan_info = makeInfo(520, 32, 24, -260);
+  nan_info.P[2] = std::numeric_limits<double>::quiet_NaN();
+  err = stereoCameraFromInfo(l, nan_info, 64, 48, cam);
+  EXPECT_TRUE(contains(err, "right camera_info P[2] is nan")) << err;
+  nan_info.P[2] = std::numeric_limits<double>::infinity();
+  err = stereoCameraFromInfo(nan_info, l, 64, 48, cam);
+  EXPECT_TRUE(contains(err, "left camera_info P[2] is inf")) << err;
+  sensor_msgs::CameraInfo zeros;  // an uncalibrated driver
+  err = stereoCameraFromInfo(zeros, makeInfo(520, 32, 24, -260), 64, 48, cam);
+  EXPECT_TRUE(contains(err, "is the camera calibrated")) << err;
+  err = stereoCameraFromInfo(l, makeInfo(520, 32, 24, -260), 128, 48, cam);
+  EXPECT_TRUE(contains(err, "left camera_info is for 64x48 (after binning/ROI) but the images are 128x48"))
+      << err;
+  err = stereoCameraFromInfo(l, makeInfo(600, 32, 24, -300), 64, 48, cam);
+  EXPECT_TRUE(contains(err, "focal lengths differ")) << err;
+}
+
+TEST(RosFrameCamera, CameraInfoWithoutSizeIsAccepted) {
+  bdis::StereoCamera cam;
+  EXPECT_EQ(stereoCameraFromInfo(makeInfo(520, 32, 24, 0, 0, 0), makeInfo(520, 32, 24, -260, 0, 0), 64, 48, cam), "");
+}
+
+TEST(RosFrameConvert, MatcherViewWrapsOrConvertsToBgr) {
+  sensor_msgs::Image bgr = makeImage(40, 36, "bgr8", 3);
+  cv::Mat buffer;
+  cv::Mat view = bdis_stereo::matcherView(bgr, buffer);
+  EXPECT_EQ(view.type(), CV_8UC3);
+  EXPECT_EQ(view.data, bgr.data.data());  // no copy
+  sensor_msgs::Image rgba = makeImage(40, 36, "rgba8", 4);
+  for (size_t i = 0; i < rgba.data.size(); i += 4) {
+    rgba.data[i] = 10;  // r
+    rgba.data[i + 1] = 20;
+    rgba.data[i + 2] = 30;  // b
+    rgba.data[i + 3] = 255;
+  }
+  view = bdis_stereo::matcherView(rgba, buffer);
+  ASSERT_EQ(view.type(), CV_8UC3);
+  EXPECT_EQ(view.at<cv::Vec3b>(5, 7), cv::Vec3b(30, 20, 10));
+}
+
+namespace {
+
+// 6x5 disparity: constant 10 with one column without an estimate.
+cv::Mat testDisparity() {
+  cv::Mat d(5, 6, CV_32FC1, cv::Scalar(10.0f));
+  d.col(0).setTo(bdis::kNoDisparity);
+  d.at<float>(4, 5) = bdis::kNoDisparity;
+  return d;
+}
+
+bdis::StereoCamera testCamera() {
+  bdis::StereoCamera cam = bdis::StereoCamera::symmetric(520, 500, 3, 2, 0.5);
+  cam.cx_right = 1;  // principal point offset: infinity at d = 2
+  return cam;
+}
+
+}  // namespace
+
+TEST(RosFrameConvert, DisparityImageFollowsStereoMsgs) {
+  stereo_msgs::DisparityImage msg;
+  bdis_stereo::fillDisparityImage(testDisparity(), testCamera(), msg);
+  EXPECT_EQ(msg.image.encoding, "32FC1");
+  EXPECT_EQ(msg.image.width, 6u);
+  EXPECT_EQ(msg.image.height, 5u);
+  EXPECT_FLOAT_EQ(msg.f, 520);
+  EXPECT_FLOAT_EQ(msg.T, 0.5);
+  EXPECT_FLOAT_EQ(msg.min_disparity, 0);
+  EXPECT_FLOAT_EQ(msg.max_disparity, 8);
+  const float* d = reinterpret_cast<const float*>(msg.image.data.data());
+  EXPECT_FLOAT_EQ(d[0], -1.0f);  // no estimate: below min_disparity
+  EXPECT_FLOAT_EQ(d[1], 8.0f);   // 10 - (cx - cx_right)
+  EXPECT_FLOAT_EQ(d[4 * 6 + 5], -1.0f);
+  // Z = f * T / d' equals the core's depth.
+  EXPECT_FLOAT_EQ(msg.f * msg.T / d[1], testCamera().depth(10.0f));
+  EXPECT_EQ(msg.valid_window.x_offset, 1u);
+  EXPECT_EQ(msg.valid_window.y_offset, 0u);
+  EXPECT_EQ(msg.valid_window.width, 5u);
+  EXPECT_EQ(msg.valid_window.height, 5u);
+}
+
+TEST(RosFrameConvert, DisparityBeyondInfinityIsInvalid) {
+  stereo_msgs::DisparityImage msg;
+  cv::Mat d(4, 4, CV_32FC1, cv::Scalar(1.5f));  // below cx - cx_right = 2
+  bdis_stereo::fillDisparityImage(d, testCamera(), msg);
+  const float* p = reinterpret_cast<const float*>(msg.image.data.data());
+  for (int i = 0; i < 16; ++i) EXPECT_LT(p[i], msg.min_disparity);
+  EXPECT_EQ(msg.valid_window.width, 0u);
+}
+
+TEST(RosFrameConvert, DepthIsFxBOverShiftedDisparityNaNElsewhere) {
+  sensor_msgs::Image msg;
+  bdis_stereo::fillDepthImage(testDisparity(), testCamera(), msg);
+  EXPECT_EQ(msg.encoding, "32FC1");
+  const float* z = reinterpret_cast<const float*>(msg.data.data());
+  EXPECT_TRUE(std::isnan(z[0]));
+  EXPECT_FLOAT_EQ(z[1], 520 * 0.5 / 8);
+}
+
+TEST(RosFrameConvert, OrganisedCloudWithRgbAndTransform) {
+  const cv::Mat disp = testDisparity();
+  cv::Mat bgr(disp.size(), CV_8UC3, cv::Scalar(1, 2, 3));
+  cv::Mat points;
+  sensor_msgs::PointCloud2 msg;
+  bdis_stereo::RigidTransform t;  // 90 degrees about z, then +1 in x
+  const double r[9] = {0, -1, 0, 1, 0, 0, 0, 0, 1};
+  std::copy(r, r + 9, t.r);
+  t.t[0] = 1.0;
+  bdis_stereo::fillPointCloud(disp, testCamera(), bgr, true, &t, points, msg);
+  ASSERT_EQ(msg.fields.size(), 4u);
+  EXPECT_EQ(msg.fields[3].name, "rgb");
+  EXPECT_EQ(msg.fields[2].offset, 8u);
+  EXPECT_EQ(msg.point_step, 16u);
+  EXPECT_EQ(msg.height, 5u);
+  EXPECT_EQ(msg.width, 6u);
+  EXPECT_FALSE(msg.is_dense);
+  EXPECT_EQ(msg.row_step, 6u * 16u);
+  float p[4];
+  std::memcpy(p, msg.data.data(), 16);  // (0, 0): no estimate
+  EXPECT_TRUE(std::isnan(p[0]) && std::isnan(p[1]) && std::isnan(p[2]));
+  const size_t i = (2 * 6 + 4) * 16;  // (x=4, y=2)
+  std::memcpy(p, msg.data.data() + i, 16);
+  const double z = 520 * 0.5 / 8, x = (4 - 3) * z / 520, y = (2 - 2) * z / 500;
+  EXPECT_NEAR(p[0], -y + 1.0, 1e-5);
+  EXPECT_NEAR(p[1], x, 1e-5);
+  EXPECT_NEAR(p[2], z, 1e-5);
+  uint32_t rgb;
+  std::memcpy(&rgb, msg.data.data() + i + 12, 4);
+  EXPECT_EQ(rgb, (3u << 16) | (2u << 8) | 1u);
+}
+
+TEST(RosFrameConvert, DenseCloudKeepsOnlyValidPointsWithoutRgbForMono) {
+  const cv::Mat disp = testDisparity();
+  cv::Mat points;
+  sensor_msgs::PointCloud2 msg;
+  bdis_stereo::fillPointCloud(disp, testCamera(), cv::Mat(), false, nullptr, points, msg);
+  ASSERT_EQ(msg.fields.size(), 3u);
+  EXPECT_EQ(msg.point_step, 12u);
+  EXPECT_EQ(msg.height, 1u);
+  EXPECT_EQ(msg.width, 30u - 5u - 1u);
+  EXPECT_TRUE(msg.is_dense);
+  EXPECT_EQ(msg.data.size(), msg.width * 12u);
+  float p[3];
+  std::memcpy(p, msg.data.data(), 12);  // first valid pixel: (1, 0)
+  const double z = 520 * 0.5 / 8;
+  EXPECT_NEAR(p[0], (1 - 3) * z / 520, 1e-5);
+  EXPECT_NEAR(p[1], (0 - 2) * z / 500, 1e-5);
+  EXPECT_NEAR(p[2], z, 1e-5);
+}
