@@ -52,10 +52,10 @@ void SceneConfig::validate() const {
 SceneConfig SceneConfig::variant(const std::string& name) {
   SceneConfig c;
   if (name == "sample") return c;
-  // The test variants: no borders, little noise, one difficulty each.
+  // The test variants: no instrument or borders unless named, one
+  // difficulty each.
   c.instrument = false;
   c.black_borders = false;
-  c.noise = 1.0;
   if (name == "diffuse") {
     c.lighting = Lighting::Diffuse;
   } else if (name == "specular") {
@@ -65,7 +65,6 @@ SceneConfig SceneConfig::variant(const std::string& name) {
     c.lighting = Lighting::Diffuse;
     c.light_spot = 30.0;
     c.exposure = 0.5;
-    c.noise = 2.0;
   } else if (name == "textureless") {
     c.lighting = Lighting::Diffuse;
     c.textureless_patch = true;
@@ -76,7 +75,6 @@ SceneConfig SceneConfig::variant(const std::string& name) {
     c.scene = SceneType::Tube;
     c.lighting = Lighting::Specular;
     c.instrument = true;
-    c.noise = 1.5;
   } else {
     std::string names;
     for (const std::string& n : variantNames()) names += (names.empty() ? "" : ", ") + n;
@@ -334,7 +332,9 @@ struct SyntheticRenderer::Impl {
         const double k = 1.0 / (n * n);
         for (int c = 0; c < 3; ++c) P.rgb[3 * i + c] = static_cast<float>(acc[c] * k);
         P.spec[i] = static_cast<float>(acc_s * k);
-        if (which == 0) P.ambiguous[i] = straddles;
+        // Only geometric edges can make the ground truth ambiguous (so it
+        // does not depend on the lighting).
+        if (which == 0) P.ambiguous[i] = geometric[i] && straddles;
       }
     }
   }
@@ -410,7 +410,10 @@ struct SyntheticRenderer::Impl {
         if (L.ambiguous[i]) continue;
         const double d = fb / Z;
         const double xr = x - d;
-        if (xr < 0 || xr > W - 1 || !insideView(1, xr, y) || d > kMaxGtDisparity) continue;
+        // Both pixels that interpolate the right image at x_r must be in view.
+        if (xr < 0 || xr > W - 1 || d > kMaxGtDisparity) continue;
+        const int xr0 = static_cast<int>(xr);
+        if (!insideView(1, xr0, y) || !insideView(1, std::min(xr0 + 1, W - 1), y)) continue;
         // Visible from the right camera? When both right pixel centres around
         // x_r see this surface at this disparity (within 0.25 px), nothing
         // can stand in between but a sliver thinner than a pixel, which the

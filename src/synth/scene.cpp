@@ -180,6 +180,17 @@ double Capsule::intersect(const Vec3& o, const Vec3& d_in, double tmin, double t
     }
   }
   if (t < 0) return -1;
+  // Two Newton steps on the signed distance along the ray remove the
+  // cancellation of the quadratic (1e-5 relative at grazing incidence).
+  for (int k = 0; k < 2; ++k) {
+    const Vec3 p = o + rd * t;
+    const double h = std::clamp(dot(p - a, ba) / baba, 0.0, 1.0);
+    const Vec3 q = p - (a + ba * h);
+    const double qn = norm(q);
+    const double slope = dot(q, rd) / qn;  // d(distance)/dt, < 0 entering
+    if (!(slope < -1e-3)) break;           // grazing: keep the quadratic's root
+    t -= (qn - radius) / slope;
+  }
   t /= dn;
   return (t > tmin && t <= tmax) ? t : -1;
 }
@@ -235,7 +246,7 @@ TissueSurface::TissueSurface(uint64_t seed) {
       const double u = lo + h * i, v = lo + h * j;
       // Control points sample the relief at >= 2 cells per wavelength: finer
       // octaves would show the grid's tensor-product structure.
-      double z = 0.0026 * noiseAt(u, v, 0.032, s1, 0).v + 0.0011 * noiseAt(u, v, 0.014, s2, 0).v;
+      double z = 0.0032 * noiseAt(u, v, 0.032, s1, 0).v + 0.0016 * noiseAt(u, v, 0.014, s2, 0).v;
       const double du = u - fold_u, dv = v - fold_v;
       const double across = -fdy * du + fdx * dv, along = fdx * du + fdy * dv;
       z -= 0.0035 * std::exp(-across * across / (2 * 0.0045 * 0.0045)) *
@@ -497,8 +508,8 @@ Material TissueTexture::eval(double u, double v, double fp, bool specular) const
   const double pv = period_v;
   // Large smooth, nearly textureless regions of the tissue itself.
   const double smooth_noise = noiseAt(u, v, 0.035, seed + 101u, pv).v;
-  const double smooth = smoothstep(0.05, 0.45, smooth_noise);
-  double detail = 1.0 - 0.88 * smooth;
+  const double smooth = smoothstep(-0.15, 0.25, smooth_noise);
+  double detail = 1.0 - 0.97 * smooth;
   double in_patch = 0.0;
   if (patch) {
     const double dist = std::sqrt((u - patch_u) * (u - patch_u) + (v - patch_v) * (v - patch_v));
@@ -534,22 +545,22 @@ Material TissueTexture::eval(double u, double v, double fp, bool specular) const
   const Vec3 base(0.78, 0.22, 0.18), pale(0.86, 0.42, 0.33), deep(0.62, 0.11, 0.10);
   const Vec3 vein(0.30, 0.03, 0.07), artery(0.50, 0.04, 0.04), capillary(0.60, 0.08, 0.08);
   Vec3 a = mottle > 0 ? lerp(base, pale, std::min(1.0, 0.9 * mottle)) : lerp(base, deep, std::min(1.0, -0.8 * mottle));
-  a = a * (1.0 + 0.16 * detail * grain);
+  a = a * (1.0 + 0.07 * detail * grain);
   a = lerp(a, capillary, std::min(1.0, 0.45 * v3));
   a = lerp(a, artery, std::min(1.0, 0.65 * v2));
   a = lerp(a, vein, std::min(1.0, 0.75 * v1));
 
   Material m;
   m.albedo = a;
-  const double bump = 0.00022 * (0.25 + 0.75 * detail);  // m of relief, as slopes below
+  const double bump = 0.00010 * (0.1 + 0.9 * detail);  // m of relief, as slopes below
   m.bump_u = bump * bu;
   m.bump_v = bump * bv;
   m.patch = in_patch;
   if (specular) {
-    m.ks_sharp = 0.9;
-    m.m_sharp = 80;
-    m.ks_broad = 0.05;
-    m.m_broad = 10;
+    m.ks_sharp = 1.6;
+    m.m_sharp = 30;
+    m.ks_broad = 0.12;
+    m.m_broad = 6;
   }
   return m;
 }
@@ -662,8 +673,8 @@ FrameState Scene::frameState(int index) const {
     fs.rig.t = Vec3(cx + off * std::sin(w * t / 7.0) - cam.baseline / 2, cy + 0.5 * off, zc);
     if (cfg_.instrument) {
       // Forceps out of the working channel at the bottom right.
-      const Vec3 a(0.008, 0.007, 0.012);
-      const Vec3 b(0.0035 + uni(-0.001, 0.001), 0.0035 + uni(-0.001, 0.001), 0.034 + 0.004 * std::sin(w * t / 5.0));
+      const Vec3 a(0.011, 0.0095, 0.018);
+      const Vec3 b(0.004 + uni(-0.001, 0.001), 0.0035 + uni(-0.001, 0.001), 0.040 + 0.004 * std::sin(w * t / 5.0));
       fs.has_tool = true;
       fs.tool = Capsule{fs.rig.apply(a), fs.rig.apply(b), tool_radius_};
     }

@@ -1,5 +1,4 @@
 // Writing a rendered sequence in the layout of the shared data folder.
-#include <charconv>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -18,16 +17,14 @@ namespace synth {
 
 namespace {
 
-// Shortest text that reads back to the same double, with ".0" on integral
-// values ("520.0", "0.005", "-2.6"), as the shared camera.yaml writes them.
+// Decimal text of a double with up to 15 significant digits (so a product
+// such as -fx * B prints as -1.35, not -1.3499999999999999) and ".0" on
+// integral values ("520.0", "0.005", "-2.6"), as the shared camera.yaml.
 std::string number(double v) {
   char buf[64];
-  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
-  std::string s(buf, res.ptr);
-  if (s.find_first_of(".eE") == std::string::npos && s.find("inf") == std::string::npos &&
-      s.find("nan") == std::string::npos) {
-    s += ".0";
-  }
+  std::snprintf(buf, sizeof(buf), "%.15g", v);
+  std::string s(buf);
+  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";  // not for inf / nan
   return s;
 }
 
