@@ -302,9 +302,11 @@ struct SyntheticRenderer::Impl {
         double acc[3] = {0, 0, 0}, acc_s = 0;
         bool straddles = false;
         const double d0 = disp(i);
-        for (int sy = 0; sy < n; ++sy) {
-          for (int sx = 0; sx < n; ++sx) {
-            const double ox = (sx + 0.5) / n - 0.5, oy = (sy + 0.5) / n - 0.5;
+        // Highlight borders alone get min(n, 2)^2 samples: no geometry to resolve.
+        const int m = geometric[i] ? n : std::min(n, 2);
+        for (int sy = 0; sy < m; ++sy) {
+          for (int sx = 0; sx < m; ++sx) {
+            const double ox = (sx + 0.5) / m - 0.5, oy = (sy + 0.5) / m - 0.5;
             float rgb[3] = {0, 0, 0}, s = 0;
             int label = kLabelNone;
             double t = -1;
@@ -329,7 +331,7 @@ struct SyntheticRenderer::Impl {
             }
           }
         }
-        const double k = 1.0 / (n * n);
+        const double k = 1.0 / (m * m);
         for (int c = 0; c < 3; ++c) P.rgb[3 * i + c] = static_cast<float>(acc[c] * k);
         P.spec[i] = static_cast<float>(acc_s * k);
         // Only geometric edges can make the ground truth ambiguous (so it

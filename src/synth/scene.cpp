@@ -110,29 +110,36 @@ double BSpline2::eval(double u, double v, double* du, double* dv) const {
   const int ix = static_cast<int>(x), iy = static_cast<int>(y);
   const double tx = x - ix, ty = y - iy;
   const int i = ix - 8, j = iy - 8;
+  const bool deriv = du || dv;
   double wu[4], dwu[4], wv[4], dwv[4];
   bsplineWeights(tx, wu, dwu);
   bsplineWeights(ty, wv, dwv);
+  // The 4 x 4 control points: rows i-1..i+2, columns j-1..j+2 (clamped or
+  // wrapped at the edges; a direct pointer inside the grid).
+  const double* rows[4];
   int cols[4];
-  for (int b = 0; b < 4; ++b) {
-    int jj = j - 1 + b;
-    if (periodic_v_) {
-      if (jj < 0) jj += nv_;
-      if (jj >= nv_) jj -= nv_;
-    } else {
-      jj = clampi(jj, 0, nv_ - 1);
+  const bool inner_cols = j >= 1 && j + 2 < nv_;
+  for (int k = 0; k < 4; ++k) {
+    rows[k] = &c_[static_cast<size_t>(clampi(i - 1 + k, 0, nu_ - 1)) * nv_];
+    int jj = j - 1 + k;
+    if (!inner_cols) {
+      if (periodic_v_) {
+        jj = jj < 0 ? jj + nv_ : (jj >= nv_ ? jj - nv_ : jj);
+      } else {
+        jj = clampi(jj, 0, nv_ - 1);
+      }
     }
-    cols[b] = jj;
+    cols[k] = jj;
   }
-  const bool deriv = du || dv;
   double val = 0, gu = 0, gv = 0;
   for (int a = 0; a < 4; ++a) {
-    const double* row = &c_[static_cast<size_t>(clampi(i - 1 + a, 0, nu_ - 1)) * nv_];
-    const double r = wv[0] * row[cols[0]] + wv[1] * row[cols[1]] + wv[2] * row[cols[2]] + wv[3] * row[cols[3]];
+    const double* row = rows[a];
+    const double c0 = row[cols[0]], c1 = row[cols[1]], c2 = row[cols[2]], c3 = row[cols[3]];
+    const double r = wv[0] * c0 + wv[1] * c1 + wv[2] * c2 + wv[3] * c3;
     val += wu[a] * r;
     if (deriv) {
       gu += dwu[a] * r;
-      gv += wu[a] * (dwv[0] * row[cols[0]] + dwv[1] * row[cols[1]] + dwv[2] * row[cols[2]] + dwv[3] * row[cols[3]]);
+      gv += wu[a] * (dwv[0] * c0 + dwv[1] * c1 + dwv[2] * c2 + dwv[3] * c3);
     }
   }
   if (du) *du = gu / hu_;
@@ -142,6 +149,14 @@ double BSpline2::eval(double u, double v, double* du, double* dv) const {
 
 // ---------------------------------------------------------------------------
 double Capsule::intersect(const Vec3& o, const Vec3& d_in, double tmin, double tmax) const {
+  // Early out: the line misses the bounding sphere.
+  {
+    const Vec3 c = (a + b) * 0.5, oc = o - c;
+    const Vec3 half = (b - a) * 0.5;
+    const double rb = std::sqrt(dot(half, half)) + radius;
+    const double dd = dot(d_in, d_in), k = dot(oc, d_in);
+    if (dot(oc, oc) - k * k / dd > rb * rb) return -1;
+  }
   // Inigo Quilez's capsule intersection, on a unit direction.
   const double dn = norm(d_in);
   const Vec3 rd = d_in * (1.0 / dn);
