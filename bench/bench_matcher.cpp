@@ -2,6 +2,9 @@
 // fast preset on the same frames in the same process, single-threaded.
 // Frames: the synthetic sequences of the shared data folder ($BDIS_DATA_DIR or
 // ../shared/data); without them, a procedurally textured 640x480 pair.
+// Image-size scaling (BM_Scaling*): generated scenes (bdis::synth, the demo
+// sample's configuration) at 320x240, 640x480, 1280x720 and 1920x1080,
+// rendered once at start-up (about 15 s).
 // Pin to one core for stable numbers: taskset -c 1 bdis_bench
 #include <benchmark/benchmark.h>
 
@@ -9,8 +12,11 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include <map>
+
 #include "bdis_stereo/evaluation.hpp"
 #include "bdis_stereo/matcher.hpp"
+#include "bdis_stereo/synthetic_scene.hpp"
 
 namespace {
 
@@ -77,6 +83,82 @@ BENCHMARK(BM_OpenCvDisFast)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK_CAPTURE(BM_Bdis, fast, std::string("fast"))->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK_CAPTURE(BM_Bdis, balanced, std::string("balanced"))->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK_CAPTURE(BM_Bdis, accurate, std::string("accurate"))->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
+// ---- Image-size scaling on generated scenes -------------------------------
+
+/// Two frames (0 and 15) of the sample scene at width x height, focal length
+/// scaled with the width (same field of view, so disparities scale too).
+const std::vector<std::pair<cv::Mat, cv::Mat>>& scaledFrames(int width, int height) {
+  static std::map<std::pair<int, int>, std::vector<std::pair<cv::Mat, cv::Mat>>> cache;
+  auto& frames = cache[{width, height}];
+  if (frames.empty()) {
+    bdis::synth::SceneConfig cfg;  // the demo sample: tissue, specular, instrument
+    cfg.width = width;
+    cfg.height = height;
+    const bdis::synth::SyntheticRenderer renderer(cfg);
+    for (int i : {0, 15}) {
+      const bdis::synth::SyntheticFrame f = renderer.render(i);
+      frames.emplace_back(f.left, f.right);
+    }
+  }
+  return frames;
+}
+
+/// Frame size and time per megapixel (printed in seconds: "25m" = 25 ms/MPix).
+void sizeCounters(benchmark::State& state, int width, int height) {
+  const double mpix = width * height / 1e6;
+  state.counters["MPix"] = mpix;
+  state.counters["per_MPix"] =
+      benchmark::Counter(mpix, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+
+void BM_ScalingBdis(benchmark::State& state) {
+  const int w = static_cast<int>(state.range(0)), h = static_cast<int>(state.range(1));
+  cv::setNumThreads(1);
+  const auto& pairs = scaledFrames(w, h);
+  bdis::Matcher matcher(bdis::MatcherParams::preset("balanced"));
+  bdis::MatchResult result;
+  matcher.compute(pairs[0].first, pairs[0].second, result);  // size buffers
+  size_t i = 0;
+  for (auto _ : state) {
+    const auto& p = pairs[i++ % pairs.size()];
+    matcher.compute(p.first, p.second, result);
+    benchmark::DoNotOptimize(result.disparity.data);
+  }
+  sizeCounters(state, w, h);
+}
+
+void BM_ScalingOpenCvDisFast(benchmark::State& state) {
+  const int w = static_cast<int>(state.range(0)), h = static_cast<int>(state.range(1));
+  cv::setNumThreads(1);
+  auto dis = cv::DISOpticalFlow::create(cv::DISOpticalFlow::PRESET_FAST);
+  const auto& pairs = scaledFrames(w, h);
+  std::vector<std::pair<cv::Mat, cv::Mat>> grey(pairs.size());
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    cv::cvtColor(pairs[k].first, grey[k].first, cv::COLOR_BGR2GRAY);
+    cv::cvtColor(pairs[k].second, grey[k].second, cv::COLOR_BGR2GRAY);
+  }
+  cv::Mat flow;
+  dis->calc(grey[0].first, grey[0].second, flow);  // size buffers
+  size_t i = 0;
+  for (auto _ : state) {
+    const auto& p = grey[i++ % grey.size()];
+    dis->calc(p.first, p.second, flow);
+    benchmark::DoNotOptimize(flow.data);
+  }
+  sizeCounters(state, w, h);
+}
+
+void scalingSizes(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"w", "h"});
+  for (const auto& s : {std::pair<int, int>{320, 240}, {640, 480}, {1280, 720}, {1920, 1080}}) {
+    b->Args({s.first, s.second});
+  }
+  b->Unit(benchmark::kMillisecond)->MinTime(1.0);
+}
+
+BENCHMARK(BM_ScalingOpenCvDisFast)->Apply(scalingSizes);
+BENCHMARK(BM_ScalingBdis)->Apply(scalingSizes);
 
 }  // namespace
 
