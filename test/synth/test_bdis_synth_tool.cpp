@@ -16,67 +16,19 @@
 #include "bdis_stereo/evaluation.hpp"
 #include "bdis_stereo/synthetic_scene.hpp"
 #include "../core/test_images.hpp"
-
-extern char** environ;
+#include "../tool_runner.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 using bdis_test::contains;
 
-struct RunResult {
-  int status = -1;
-  std::string out, err;
-  int code() const { return WIFEXITED(status) ? WEXITSTATUS(status) : -1; }
-  std::string all() const { return out + err; }
-};
+using bdis_test::readFile;
+using bdis_test::RunResult;
 
-std::string readFile(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
-
-class BdisSynthTool : public ::testing::Test {
+class BdisSynthTool : public bdis_test::ToolTest {
  protected:
-  void SetUp() override {
-    tool_ = std::string(BDIS_TOOLS_DIR) + "/bdis_synth";
-    ASSERT_TRUE(fs::exists(tool_)) << tool_ << " is not built";
-    std::string tmpl = (fs::temp_directory_path() / "bdis_synth_test_XXXXXX").string();
-    ASSERT_NE(mkdtemp(tmpl.data()), nullptr);
-    dir_ = tmpl;
-  }
-  void TearDown() override {
-    std::error_code ec;
-    if (!dir_.empty()) fs::remove_all(dir_, ec);
-  }
-  std::string path(const std::string& name) const { return (fs::path(dir_) / name).string(); }
-
-  // Runs the tool directly (no shell: a crash shows as a signal, not as 128 + n).
-  RunResult run(const std::vector<std::string>& args) {
-    const std::string out_path = path(".stdout"), err_path = path(".stderr");
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    std::vector<std::string> argv_s = {tool_};
-    argv_s.insert(argv_s.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (std::string& a : argv_s) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    RunResult r;
-    pid_t pid = 0;
-    const int rc = posix_spawn(&pid, tool_.c_str(), &actions, nullptr, argv.data(), environ);
-    posix_spawn_file_actions_destroy(&actions);
-    if (rc != 0) return r;
-    waitpid(pid, &r.status, 0);
-    r.out = readFile(out_path);
-    r.err = readFile(err_path);
-    return r;
-  }
-
-  std::string tool_, dir_;
+  BdisSynthTool() : ToolTest("bdis_synth") {}
 };
 
 const std::vector<std::string> kSmall = {"--width", "160", "--height", "120", "--frames", "2", "--quiet"};

@@ -20,8 +20,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "bdis_stereo/evaluation.hpp"
-
-extern char** environ;
+#include "../tool_runner.hpp"
 
 namespace {
 
@@ -30,61 +29,12 @@ namespace fs = std::filesystem;
 constexpr int kShift = 6;  // px, the known disparity of the synthetic pair
 constexpr int kWidth = 160, kHeight = 128;
 
-struct RunResult {
-  int status = -1;  // raw waitpid status
-  std::string out, err;
-  bool exited() const { return WIFEXITED(status); }
-  int code() const { return WIFEXITED(status) ? WEXITSTATUS(status) : -1; }
-  std::string all() const { return out + err; }
-};
+using bdis_test::readFile;
+using bdis_test::RunResult;
 
-std::string readFile(const std::string& path) {
-  std::ifstream f(path);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
-
-class BdisMatchTest : public ::testing::Test {
+class BdisMatchTest : public bdis_test::ToolTest {
  protected:
-  void SetUp() override {
-    tool_ = std::string(BDIS_TOOLS_DIR) + "/bdis_match";
-    ASSERT_TRUE(fs::exists(tool_)) << tool_ << " is not built";
-    std::string tmpl = (fs::temp_directory_path() / "bdis_match_test_XXXXXX").string();
-    ASSERT_NE(mkdtemp(tmpl.data()), nullptr);
-    dir_ = tmpl;
-  }
-  void TearDown() override {
-    std::error_code ec;
-    if (!dir_.empty()) fs::remove_all(dir_, ec);
-  }
-
-  std::string path(const std::string& name) const { return (fs::path(dir_) / name).string(); }
-
-  // Runs the tool directly (no shell, so a crash shows up as a signal in the
-  // status rather than as a shell's exit code 128 + n).
-  RunResult run(const std::vector<std::string>& args) {
-    const std::string out_path = path(".stdout"), err_path = path(".stderr");
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    std::vector<std::string> argv_s = {tool_};
-    argv_s.insert(argv_s.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (std::string& a : argv_s) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    RunResult r;
-    pid_t pid = 0;
-    const int rc = posix_spawn(&pid, tool_.c_str(), &actions, nullptr, argv.data(), environ);
-    posix_spawn_file_actions_destroy(&actions);
-    EXPECT_EQ(rc, 0) << "cannot start " << tool_;
-    if (rc != 0) return r;
-    EXPECT_EQ(waitpid(pid, &r.status, 0), pid);
-    r.out = readFile(out_path);
-    r.err = readFile(err_path);
-    return r;
-  }
+  BdisMatchTest() : ToolTest("bdis_match") {}
 
   // A smooth random texture (no pure black) and the pair with disparity kShift.
   static void makePair(int seed, cv::Mat& left, cv::Mat& right, int width = kWidth,
@@ -115,8 +65,6 @@ class BdisMatchTest : public ::testing::Test {
     EXPECT_NE(r.err.find(needle), std::string::npos)
         << "stderr lacks '" << needle << "':\n" << r.err;
   }
-
-  std::string tool_, dir_;
 };
 
 double interiorMedian(const cv::Mat& disparity) {
