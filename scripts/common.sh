@@ -68,6 +68,9 @@ link_package_source() {
   ws_real="$(cd "$WS_DIR" && pwd -P)"
   for entry in "$REPO_DIR"/*; do
     [ "$(cd "$entry" 2>/dev/null && pwd -P)" = "$ws_real" ] && continue
+    case "$(basename "$entry")" in
+      _ws|build|out) rm -f "$pkg/$(basename "$entry")"; continue ;;  # build output (.gitignore), maybe another workspace
+    esac
     ln -sfn "$entry" "$pkg/$(basename "$entry")"
   done
 }

@@ -2,7 +2,9 @@
 """The nodelet in a manager (basic.test): lazy subscription, outputs against the
 exact truth of a synthetic pair, bad inputs, dynamic_reconfigure, diagnostics.
 Nodelet /stereo/bdis (organised cloud, exact sync) and /stereo_dense/bdis
-(organized_cloud: false) read the same /stereo inputs."""
+(organized_cloud: false) read the same /stereo inputs.
+node.test runs the same cases against the standalone bdis_stereo_node, which
+logs under its own name: `--log-node /stereo/bdis`."""
 import os
 import sys
 import unittest
@@ -19,7 +21,9 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bdis_rostest_util as u  # noqa: E402
 
 NODELET = "/stereo/bdis"
-MANAGER = "/stereo/manager"
+# The process whose /rosout messages carry the nodelet's log lines.
+MANAGER = (sys.argv[sys.argv.index("--log-node") + 1] if "--log-node" in sys.argv
+           else "/stereo/manager")
 
 
 class Stamps(object):
