@@ -106,7 +106,13 @@ class TestNodeletBasic(unittest.TestCase):
             u.wait_for(lambda: all(c.sub.get_num_connections() > 0
                                    for c in (disp, depth, depth_info, conf, cloud, dense)),
                        10.0, "output connections")
-            stamp, _ = self.processed(dense, cx_right=cx_right)
+            # Republish until every output has the frame: the two nodes (or
+            # processes, in node.test) subscribe to the inputs independently.
+            stamp = Stamps.next()
+            outputs = (disp, depth, depth_info, conf, cloud, dense)
+            u.publish_until(lambda: self.inputs.publish_pair(stamp, self.left, self.right, cx_right=cx_right),
+                            lambda: all(c.with_stamp(stamp) for c in outputs), 20.0,
+                            "every output with stamp %.3f" % stamp.to_sec())
             d_msg = disp.wait_stamp(stamp)
             z_msg = depth.wait_stamp(stamp)
             zi_msg = depth_info.wait_stamp(stamp)
