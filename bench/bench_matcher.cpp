@@ -20,8 +20,10 @@
 
 namespace {
 
+using Pairs = std::vector<std::pair<cv::Mat, cv::Mat>>;  // BGR left, right
+
 struct Frames {
-  std::vector<std::pair<cv::Mat, cv::Mat>> pairs;  // BGR left, right
+  Pairs pairs;
 };
 
 const Frames& frames() {
@@ -45,37 +47,46 @@ const Frames& frames() {
   return f;
 }
 
-void BM_Bdis(benchmark::State& state, const std::string& preset) {
+/// Times the matcher over `pairs` in turn, after one untimed frame that sizes its buffers.
+void timeBdis(benchmark::State& state, const std::string& preset, const Pairs& pairs) {
   cv::setNumThreads(1);
   bdis::Matcher matcher(bdis::MatcherParams::preset(preset));
   bdis::MatchResult result;
-  const auto& pairs = frames().pairs;
-  matcher.compute(pairs[0].first, pairs[0].second, result);  // size buffers
+  matcher.compute(pairs[0].first, pairs[0].second, result);
   size_t i = 0;
   for (auto _ : state) {
     const auto& p = pairs[i++ % pairs.size()];
     matcher.compute(p.first, p.second, result);
     benchmark::DoNotOptimize(result.disparity.data);
   }
-  state.SetItemsProcessed(state.iterations());
 }
 
-void BM_OpenCvDisFast(benchmark::State& state) {
+/// The same for OpenCV's DIS fast preset on the grey pairs (converted untimed).
+void timeOpenCvDisFast(benchmark::State& state, const Pairs& pairs) {
   cv::setNumThreads(1);
   auto dis = cv::DISOpticalFlow::create(cv::DISOpticalFlow::PRESET_FAST);
-  const auto& pairs = frames().pairs;
-  std::vector<std::pair<cv::Mat, cv::Mat>> grey(pairs.size());
+  Pairs grey(pairs.size());
   for (size_t k = 0; k < pairs.size(); ++k) {
     cv::cvtColor(pairs[k].first, grey[k].first, cv::COLOR_BGR2GRAY);
     cv::cvtColor(pairs[k].second, grey[k].second, cv::COLOR_BGR2GRAY);
   }
   cv::Mat flow;
+  dis->calc(grey[0].first, grey[0].second, flow);
   size_t i = 0;
   for (auto _ : state) {
     const auto& p = grey[i++ % grey.size()];
     dis->calc(p.first, p.second, flow);
     benchmark::DoNotOptimize(flow.data);
   }
+}
+
+void BM_Bdis(benchmark::State& state, const std::string& preset) {
+  timeBdis(state, preset, frames().pairs);
+  state.SetItemsProcessed(state.iterations());
+}
+
+void BM_OpenCvDisFast(benchmark::State& state) {
+  timeOpenCvDisFast(state, frames().pairs);
   state.SetItemsProcessed(state.iterations());
 }
 
@@ -88,8 +99,8 @@ BENCHMARK_CAPTURE(BM_Bdis, accurate, std::string("accurate"))->Unit(benchmark::k
 
 /// Two frames (0 and 15) of the sample scene at width x height, focal length
 /// scaled with the width (same field of view, so disparities scale too).
-const std::vector<std::pair<cv::Mat, cv::Mat>>& scaledFrames(int width, int height) {
-  static std::map<std::pair<int, int>, std::vector<std::pair<cv::Mat, cv::Mat>>> cache;
+const Pairs& scaledFrames(int width, int height) {
+  static std::map<std::pair<int, int>, Pairs> cache;
   auto& frames = cache[{width, height}];
   if (frames.empty()) {
     bdis::synth::SceneConfig cfg;  // the demo sample: tissue, specular, instrument
@@ -114,38 +125,13 @@ void sizeCounters(benchmark::State& state, int width, int height) {
 
 void BM_ScalingBdis(benchmark::State& state) {
   const int w = static_cast<int>(state.range(0)), h = static_cast<int>(state.range(1));
-  cv::setNumThreads(1);
-  const auto& pairs = scaledFrames(w, h);
-  bdis::Matcher matcher(bdis::MatcherParams::preset("balanced"));
-  bdis::MatchResult result;
-  matcher.compute(pairs[0].first, pairs[0].second, result);  // size buffers
-  size_t i = 0;
-  for (auto _ : state) {
-    const auto& p = pairs[i++ % pairs.size()];
-    matcher.compute(p.first, p.second, result);
-    benchmark::DoNotOptimize(result.disparity.data);
-  }
+  timeBdis(state, "balanced", scaledFrames(w, h));
   sizeCounters(state, w, h);
 }
 
 void BM_ScalingOpenCvDisFast(benchmark::State& state) {
   const int w = static_cast<int>(state.range(0)), h = static_cast<int>(state.range(1));
-  cv::setNumThreads(1);
-  auto dis = cv::DISOpticalFlow::create(cv::DISOpticalFlow::PRESET_FAST);
-  const auto& pairs = scaledFrames(w, h);
-  std::vector<std::pair<cv::Mat, cv::Mat>> grey(pairs.size());
-  for (size_t k = 0; k < pairs.size(); ++k) {
-    cv::cvtColor(pairs[k].first, grey[k].first, cv::COLOR_BGR2GRAY);
-    cv::cvtColor(pairs[k].second, grey[k].second, cv::COLOR_BGR2GRAY);
-  }
-  cv::Mat flow;
-  dis->calc(grey[0].first, grey[0].second, flow);  // size buffers
-  size_t i = 0;
-  for (auto _ : state) {
-    const auto& p = grey[i++ % grey.size()];
-    dis->calc(p.first, p.second, flow);
-    benchmark::DoNotOptimize(flow.data);
-  }
+  timeOpenCvDisFast(state, scaledFrames(w, h));
   sizeCounters(state, w, h);
 }
 

@@ -102,6 +102,9 @@ struct SearchPass {
   std::vector<float> tmpl, grad, spatial, row_buf, costs, likelihood, window_sum, window_sq;
   std::vector<uchar> tmpl_valid;
 
+  /// What depends only on the parameters (kernels, spatial Gaussian): done
+  /// when they are set, not per frame.
+  void configure(const MatcherParams& p);
   void allocate(cv::Size size, int levels);
   /// Matches levels coarsest..finest; leaves the finest level's floored result
   /// in level_disparity / level_confidence / level_variance.
@@ -156,13 +159,28 @@ Matcher& Matcher::operator=(Matcher&&) noexcept = default;
 void Matcher::setParams(const MatcherParams& params) {
   params.validate();
   impl_->params = params;
+  impl_->left_pass.configure(params);
+  impl_->right_pass.configure(params);
+}
+
+void SearchPass::configure(const MatcherParams& p) {
+  kernels = &detail::kernelsFor(p.patch_size, detail::bestKernelIsa());
+  const int n = p.patch_size;
+  const float c = 0.5f * static_cast<float>(n - 1);
+  const float inv2s2 = 1.f / (2.f * p.sigma_s * p.sigma_s);
+  spatial.resize(static_cast<size_t>(n) * static_cast<size_t>(n));
+  for (int y = 0; y < n; ++y) {
+    for (int x = 0; x < n; ++x) {
+      const float dx = static_cast<float>(x) - c, dy = static_cast<float>(y) - c;
+      spatial[static_cast<size_t>(y * n + x)] = std::exp(-(dx * dx + dy * dy) * inv2s2);
+    }
+  }
 }
 
 const MatcherParams& Matcher::params() const { return impl_->params; }
 
 void SearchPass::allocate(cv::Size size, int levels) {
   const int p = params.patch_size;
-  kernels = &detail::kernelsFor(p, detail::bestKernelIsa());
   const int window = 2 * params.window_half_width + 1;
   // Every create()/resize() below is a no-op when the size is unchanged, so a
   // steady stream of equal frames allocates nothing.
@@ -182,7 +200,6 @@ void SearchPass::allocate(cv::Size size, int levels) {
   tmpl.resize(pp);
   grad.resize(pp);
   tmpl_valid.resize(pp);
-  spatial.resize(pp);
   const int max_window_span = static_cast<int>(
       std::ceil(2.f * static_cast<float>(params.window_half_width) * params.window_step));
   row_buf.resize(static_cast<size_t>(p + max_window_span + 2));
@@ -238,20 +255,9 @@ void Matcher::Impl::leftRightCheck(float tolerance) {
 }
 
 void SearchPass::run(const cv::Mat& reference, const cv::Mat& other, int levels) {
-  const int p = params.patch_size;
   const int finest = params.finest_level;
   allocate(reference.size(), levels);
   pyramid.build(reference, other, levels, finest);
-
-  // Spatial Gaussian, once per frame (cheap, p*p) so parameter changes apply.
-  const float c = 0.5f * static_cast<float>(p - 1);
-  const float inv2s2 = 1.f / (2.f * params.sigma_s * params.sigma_s);
-  for (int y = 0; y < p; ++y) {
-    for (int x = 0; x < p; ++x) {
-      const float dx = static_cast<float>(x) - c, dy = static_cast<float>(y) - c;
-      spatial[static_cast<size_t>(y * p + x)] = std::exp(-(dx * dx + dy * dy) * inv2s2);
-    }
-  }
 
   // Start from zero disparity above the coarsest level.
   fill(init_disparity[levels], 0.f);
@@ -349,16 +355,26 @@ void SearchPass::patchSums(float u, bool want_cost, ResidualSums& r) {
   const PyramidLevel& L = *cur.level;
   const int p = params.patch_size;
   const SampleSpan span = detail::sampleSpan(cur.x0, u);
-  const bool fast = cur.left_all_valid && span.base >= 0 && span.base + p < L.width &&
-                    rectSum(L.right_invalid, span.base, cur.y0, span.base + p + 1, cur.y0 + p) == 0;
-  if (fast) {
+  if (!cur.left_all_valid) {
+    detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, tmpl.data(), grad.data(),
+                       tmpl_valid.data(), r);
+    return;
+  }
+  // Fast path: the span and its right neighbour column inside the image and valid.
+  if (span.base >= 0 && span.base + p < L.width &&
+      rectSum(L.right_invalid, span.base, cur.y0, span.base + p + 1, cur.y0 + p) == 0) {
     kernels->sums_all_valid(L.right[cur.y0], rowStride(L.right), p, span, tmpl.data(), grad.data(),
                             want_cost, row_buf.data(), r);
     r.g = cur.g_sum;
     r.g_sq = cur.g_sq_sum;
-  } else if (cur.left_all_valid && L.right_invalid(L.height, L.width) == 0) {
-    // Only the image edge is in the way (no black pixels in the right image).
-    detail::sumsClipped(L.right[cur.y0], rowStride(L.right), L.width, p, span, tmpl.data(),
+    return;
+  }
+  // Near or past the image edge: sum over the columns inside it, if those are valid.
+  const detail::ColumnRange cols = detail::columnsInside(L.width, p, span);
+  const int taps = span.frac > 0.f ? 1 : 0;
+  if (cols.empty() || rectSum(L.right_invalid, span.base + cols.begin, cur.y0,
+                              span.base + cols.end + taps, cur.y0 + p) == 0) {
+    detail::sumsClipped(L.right[cur.y0], rowStride(L.right), p, span, cols, tmpl.data(),
                         grad.data(), r);
   } else {
     detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, tmpl.data(), grad.data(),

@@ -100,24 +100,34 @@ inline void windowCostsAllValid(const float* rows, size_t stride, int p, int bas
   }
 }
 
-/// Clipped path: every template pixel and every right pixel valid, but the
-/// span leaves the image (a match near or past the left or right edge): the
-/// sums run over the columns that stay inside, without per-pixel tests.
-inline void sumsClipped(const float* rows, size_t stride, int width, int p, SampleSpan span,
-                        const float* T, const float* G, ResidualSums& out) {
+/// Columns i of a patch whose right samples (x0 - u + i and, with a second
+/// tap, its right neighbour) lie inside an image `width` wide: [begin, end).
+struct ColumnRange {
+  int begin, end;
+  bool empty() const { return end <= begin; }
+};
+
+inline ColumnRange columnsInside(int width, int p, SampleSpan span) {
   const int taps = span.frac > 0.f ? 1 : 0;
-  const int i0 = std::max(0, -span.base);
-  const int i1 = std::min(p, width - taps - span.base);
+  return {std::max(0, -span.base), std::min(p, width - taps - span.base)};
+}
+
+/// Clipped path: every template pixel valid, and the right pixels valid over
+/// `cols`, the columns that stay inside the image (a match near or past its
+/// edge): sums over those columns without per-pixel tests.
+inline void sumsClipped(const float* rows, size_t stride, int p, SampleSpan span, ColumnRange cols,
+                        const float* T, const float* G, ResidualSums& out) {
   out = ResidualSums{};
-  if (i1 <= i0) return;
+  if (cols.empty()) return;
+  const bool two_taps = span.frac > 0.f;
   const float w0 = 1.f - span.frac, w1 = span.frac;
   float sd = 0, sdd = 0, sgd = 0, sg = 0, sgg = 0;
   for (int y = 0; y < p; ++y) {
     const float* r = rows + y * stride + span.base;
     const float* t = T + y * p;
     const float* g = G + y * p;
-    for (int i = i0; i < i1; ++i) {
-      const float sample = taps ? w0 * r[i] + w1 * r[i + 1] : r[i];
+    for (int i = cols.begin; i < cols.end; ++i) {
+      const float sample = two_taps ? w0 * r[i] + w1 * r[i + 1] : r[i];
       const float d = sample - t[i];
       sd += d;
       sdd += d * d;
@@ -126,7 +136,7 @@ inline void sumsClipped(const float* rows, size_t stride, int width, int p, Samp
       sgg += g[i] * g[i];
     }
   }
-  out = {static_cast<float>((i1 - i0) * p), sd, sdd, sgd, sg, sgg};
+  out = {static_cast<float>((cols.end - cols.begin) * p), sd, sdd, sgd, sg, sgg};
 }
 
 /// General path: pixels invalid in the template (M == 0), outside the image,
@@ -184,7 +194,7 @@ const KernelSet& kernelsFor(int patch_size, KernelIsa isa);
 
 /// The best ISA this CPU runs; the environment variable BDIS_SIMD=off forces
 /// the scalar kernels and BDIS_SIMD=baseline the baseline ones (to compare
-/// results or rule the SIMD path out).
+/// results or rule the SIMD path out). Read when a matcher's parameters are set.
 KernelIsa bestKernelIsa();
 
 /// Whether `isa` was built into this library and runs on this CPU.

@@ -8,6 +8,8 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <opencv2/imgproc.hpp>
 #include <pluginlib/class_list_macros.hpp>
+#include <tf2/LinearMath/Matrix3x3.h>
+#include <tf2/LinearMath/Quaternion.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <stereo_msgs/DisparityImage.h>
 
@@ -500,14 +502,13 @@ void BdisStereoNodelet::process(const Frame& frame) {
         const geometry_msgs::TransformStamped t = tf_buffer_->lookupTransform(
             target_frame_, header.frame_id, stamp, ros::Duration(tf_timeout_));
         const auto& q = t.transform.rotation;
-        const double w = q.w, x = q.x, y = q.y, z = q.z;
-        const double n = std::sqrt(w * w + x * x + y * y + z * z);
+        const tf2::Quaternion rotation(q.x, q.y, q.z, q.w);
+        const double n = rotation.length();
         if (!(n > 0.0) || !std::isfinite(n)) throw tf2::TransformException("invalid rotation");
-        const double a = w / n, b = x / n, c = y / n, d = z / n;
-        const double r[9] = {1 - 2 * (c * c + d * d), 2 * (b * c - a * d), 2 * (b * d + a * c),
-                             2 * (b * c + a * d), 1 - 2 * (b * b + d * d), 2 * (c * d - a * b),
-                             2 * (b * d - a * c), 2 * (c * d + a * b), 1 - 2 * (b * b + c * c)};
-        std::copy(r, r + 9, transform.r);
+        const tf2::Matrix3x3 r(rotation / n);
+        for (int row = 0; row < 3; ++row) {
+          for (int col = 0; col < 3; ++col) transform.r[3 * row + col] = r[row][col];
+        }
         transform.t[0] = t.transform.translation.x;
         transform.t[1] = t.transform.translation.y;
         transform.t[2] = t.transform.translation.z;

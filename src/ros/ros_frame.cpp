@@ -55,6 +55,17 @@ std::string checkProjection(const sensor_msgs::CameraInfo& info, const char* sid
   return "";
 }
 
+/// Sizes `msg` as a dense 32FC1 image and returns a Mat over its data.
+cv::Mat floatImageOver(int rows, int cols, sensor_msgs::Image& msg) {
+  msg.height = rows;
+  msg.width = cols;
+  msg.encoding = enc::TYPE_32FC1;
+  msg.is_bigendian = 0;
+  msg.step = cols * sizeof(float);
+  msg.data.resize(static_cast<std::size_t>(msg.step) * msg.height);
+  return cv::Mat(rows, cols, CV_32FC1, msg.data.data(), msg.step);
+}
+
 }  // namespace
 
 bool isSupportedEncoding(const std::string& encoding) { return channelsOf(encoding) > 0; }
@@ -179,33 +190,20 @@ cv::Mat matcherView(const sensor_msgs::Image& image, cv::Mat& buffer) {
 
 void fillFloatImage(const cv::Mat& image, sensor_msgs::Image& msg) {
   CV_Assert(image.type() == CV_32FC1);
-  msg.height = image.rows;
-  msg.width = image.cols;
-  msg.encoding = enc::TYPE_32FC1;
-  msg.is_bigendian = 0;
-  msg.step = image.cols * sizeof(float);
-  msg.data.resize(static_cast<std::size_t>(msg.step) * msg.height);
-  cv::Mat out(image.rows, image.cols, CV_32FC1, msg.data.data(), msg.step);
-  image.copyTo(out);
+  image.copyTo(floatImageOver(image.rows, image.cols, msg));
 }
 
 void fillDisparityImage(const cv::Mat& disparity, const bdis::StereoCamera& camera,
                         stereo_msgs::DisparityImage& msg) {
   CV_Assert(disparity.type() == CV_32FC1);
-  sensor_msgs::Image& img = msg.image;
-  img.height = disparity.rows;
-  img.width = disparity.cols;
-  img.encoding = enc::TYPE_32FC1;
-  img.is_bigendian = 0;
-  img.step = disparity.cols * sizeof(float);
-  img.data.resize(static_cast<std::size_t>(img.step) * img.height);
+  cv::Mat out_image = floatImageOver(disparity.rows, disparity.cols, msg.image);
   const float offset = static_cast<float>(camera.cx - camera.cx_right);
   const float invalid = -1.0f;  // min_disparity - 1
   float max_d = 0.0f;
   int x0 = disparity.cols, y0 = disparity.rows, x1 = -1, y1 = -1;
   for (int y = 0; y < disparity.rows; ++y) {
     const float* d = disparity.ptr<float>(y);
-    float* out = reinterpret_cast<float*>(img.data.data() + static_cast<std::size_t>(y) * img.step);
+    float* out = out_image.ptr<float>(y);
     bool row_valid = false;
     for (int x = 0; x < disparity.cols; ++x) {
       const float shifted = d[x] - offset;
@@ -241,13 +239,7 @@ void fillDisparityImage(const cv::Mat& disparity, const bdis::StereoCamera& came
 
 void fillDepthImage(const cv::Mat& disparity, const bdis::StereoCamera& camera,
                     sensor_msgs::Image& msg) {
-  msg.height = disparity.rows;
-  msg.width = disparity.cols;
-  msg.encoding = enc::TYPE_32FC1;
-  msg.is_bigendian = 0;
-  msg.step = disparity.cols * sizeof(float);
-  msg.data.resize(static_cast<std::size_t>(msg.step) * msg.height);
-  cv::Mat out(disparity.rows, disparity.cols, CV_32FC1, msg.data.data(), msg.step);
+  cv::Mat out = floatImageOver(disparity.rows, disparity.cols, msg);
   bdis::disparityToDepth(disparity, camera, out);  // same size and type: writes in place
 }
 

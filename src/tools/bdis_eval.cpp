@@ -121,10 +121,7 @@ int run(int argc, char** argv) {
   size_t max_frames = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw UsageError(a + " needs a value");
-      return argv[++i];
-    };
+    auto value = [&]() { return optionValue(i, argc, argv); };
     if (a == "-h" || a == "--help") {
       std::cout << kUsage;
       return 0;

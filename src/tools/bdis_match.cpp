@@ -199,8 +199,7 @@ Options parseArgs(int argc, char** argv, bool* help) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw UsageError(a + " needs a value");
-      const std::string v = argv[++i];
+      const std::string v = optionValue(i, argc, argv);
       if (v.empty()) throw UsageError(a + " needs a non-empty value");
       return v;
     };

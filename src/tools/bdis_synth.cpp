@@ -45,38 +45,18 @@ options:
   -q, --quiet            no progress bar
 )";
 
-std::string needValue(int& i, int argc, char** argv) {
-  const std::string opt = argv[i];
-  if (i + 1 >= argc) throw UsageError(opt + " needs a value");
-  return argv[++i];
-}
-
-double toDouble(const std::string& opt, const std::string& text) {
-  size_t used = 0;
-  double v = 0;
+/// The parsers of the scene library throw std::invalid_argument: a usage error here.
+template <typename F>
+auto asUsageError(F parse) {
   try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
+    return parse();
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(e.what());
   }
-  if (text.empty() || used != text.size()) throw UsageError(opt + " needs a number, got '" + text + "'");
-  return v;
-}
-
-long long toInteger(const std::string& opt, const std::string& text) {
-  size_t used = 0;
-  long long v = 0;
-  try {
-    v = std::stoll(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (text.empty() || used != text.size()) throw UsageError(opt + " needs an integer, got '" + text + "'");
-  return v;
 }
 
 int toInt(const std::string& opt, const std::string& text) {
-  const long long v = toInteger(opt, text);
+  const long long v = parseInteger(opt, text);
   if (v < -1000000000LL || v > 1000000000LL) throw UsageError(opt + " = " + text + " is out of range");
   return static_cast<int>(v);
 }
@@ -88,7 +68,7 @@ int run(int argc, char** argv) {
   synth::SceneConfig cfg;
   for (int i = 1; i < argc; ++i) {
     if (std::string(argv[i]) == "--variant") {
-      const std::string name = needValue(i, argc, argv);
+      const std::string name = optionValue(i, argc, argv);
       try {
         cfg = synth::SceneConfig::variant(name);
       } catch (const std::invalid_argument& e) {
@@ -104,33 +84,25 @@ int run(int argc, char** argv) {
     } else if (a == "--variant") {
       ++i;
     } else if (a == "--out") {
-      out = needValue(i, argc, argv);
+      out = optionValue(i, argc, argv);
     } else if (a == "--scene") {
-      try {
-        cfg.scene = synth::parseSceneType(needValue(i, argc, argv));
-      } catch (const std::invalid_argument& e) {
-        throw UsageError(e.what());
-      }
+      cfg.scene = asUsageError([&] { return synth::parseSceneType(optionValue(i, argc, argv)); });
     } else if (a == "--lighting") {
-      try {
-        cfg.lighting = synth::parseLighting(needValue(i, argc, argv));
-      } catch (const std::invalid_argument& e) {
-        throw UsageError(e.what());
-      }
+      cfg.lighting = asUsageError([&] { return synth::parseLighting(optionValue(i, argc, argv)); });
     } else if (a == "--frames") {
-      cfg.frames = toInt(a, needValue(i, argc, argv));
+      cfg.frames = toInt(a, optionValue(i, argc, argv));
     } else if (a == "--width") {
-      cfg.width = toInt(a, needValue(i, argc, argv));
+      cfg.width = toInt(a, optionValue(i, argc, argv));
     } else if (a == "--height") {
-      cfg.height = toInt(a, needValue(i, argc, argv));
+      cfg.height = toInt(a, optionValue(i, argc, argv));
     } else if (a == "--focal") {
-      cfg.focal = toDouble(a, needValue(i, argc, argv));
+      cfg.focal = parseDouble(a, optionValue(i, argc, argv));
     } else if (a == "--baseline") {
-      cfg.baseline = toDouble(a, needValue(i, argc, argv));
+      cfg.baseline = parseDouble(a, optionValue(i, argc, argv));
     } else if (a == "--noise") {
-      cfg.noise = toDouble(a, needValue(i, argc, argv));
+      cfg.noise = parseDouble(a, optionValue(i, argc, argv));
     } else if (a == "--seed") {
-      const long long s = toInteger(a, needValue(i, argc, argv));
+      const long long s = parseInteger(a, optionValue(i, argc, argv));
       if (s < 0) throw UsageError("--seed must be >= 0");
       cfg.seed = static_cast<uint64_t>(s);
     } else if (a == "--instrument") {
@@ -144,13 +116,13 @@ int run(int argc, char** argv) {
     } else if (a == "--textureless-patch") {
       cfg.textureless_patch = true;
     } else if (a == "--spot") {
-      cfg.light_spot = toDouble(a, needValue(i, argc, argv));
+      cfg.light_spot = parseDouble(a, optionValue(i, argc, argv));
     } else if (a == "--exposure") {
-      cfg.exposure = toDouble(a, needValue(i, argc, argv));
+      cfg.exposure = parseDouble(a, optionValue(i, argc, argv));
     } else if (a == "--motion") {
-      cfg.motion = toDouble(a, needValue(i, argc, argv));
+      cfg.motion = parseDouble(a, optionValue(i, argc, argv));
     } else if (a == "--supersampling") {
-      cfg.supersampling = toInt(a, needValue(i, argc, argv));
+      cfg.supersampling = toInt(a, optionValue(i, argc, argv));
     } else if (a == "--overwrite") {
       overwrite = true;
     } else if (a == "-q" || a == "--quiet") {

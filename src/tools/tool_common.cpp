@@ -46,6 +46,40 @@ MatcherParams resolveParams(const std::string& preset, const std::string& params
   return p;
 }
 
+std::string optionValue(int& i, int argc, char** argv) {
+  const std::string option = argv[i];
+  if (i + 1 >= argc) throw UsageError(option + " needs a value");
+  return argv[++i];
+}
+
+namespace {
+template <typename T>
+T parseWhole(const std::string& what, const std::string& text, const char* kind,
+             T (*parse)(const std::string&, size_t*)) {
+  size_t used = 0;
+  T v{};
+  try {
+    v = parse(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (text.empty() || used != text.size()) {
+    throw UsageError(what + " needs " + kind + ", got '" + text + "'");
+  }
+  return v;
+}
+}  // namespace
+
+double parseDouble(const std::string& what, const std::string& text) {
+  return parseWhole<double>(what, text, "a number",
+                            [](const std::string& t, size_t* used) { return std::stod(t, used); });
+}
+
+long long parseInteger(const std::string& what, const std::string& text) {
+  return parseWhole<long long>(what, text, "an integer",
+                               [](const std::string& t, size_t* used) { return std::stoll(t, used); });
+}
+
 MatcherParams applyOverride(MatcherParams params, const std::string& assignment) {
   const size_t eq = assignment.find('=');
   if (eq == std::string::npos) throw UsageError("expected NAME=VALUE, got '" + assignment + "'");
@@ -58,15 +92,7 @@ MatcherParams applyOverride(MatcherParams params, const std::string& assignment)
   } else if (text == "false") {
     v = 0;
   } else {
-    size_t used = 0;
-    try {
-      v = std::stod(text, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used != text.size() || text.empty()) {
-      throw UsageError("parameter " + name + " needs a number, got '" + text + "'");
-    }
+    v = parseDouble("parameter " + name, text);
   }
   if (v < f->min_value || v > f->max_value) {
     throw UsageError("parameter " + name + " = " + text + " is out of range [" +

@@ -25,6 +25,14 @@ struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The value after option argv[i] (advancing i); UsageError "OPT needs a value" at the end.
+std::string optionValue(int& i, int argc, char** argv);
+
+/// Whole-string number parsing for option `what`; UsageError "WHAT needs a number,
+/// got 'TEXT'" (or "an integer") otherwise.
+double parseDouble(const std::string& what, const std::string& text);
+long long parseInteger(const std::string& what, const std::string& text);
+
 /// Preset (default "balanced") then an optional YAML file on top.
 MatcherParams resolveParams(const std::string& preset, const std::string& params_file);
 

@@ -157,7 +157,8 @@ TEST(PatchKernels, ClippedSumsMatchTheMaskedPathAtTheImageEdges) {
     for (float u : {-6.5f, -2.f, 0.f, 0.25f, 4.f, 7.75f, 12.f}) {
       const SampleSpan span = sampleSpan(x0, u);
       ResidualSums clipped, masked;
-      sumsClipped(right[y0], right.step1(), width, p, span, T.data(), G.data(), clipped);
+      sumsClipped(right[y0], right.step1(), p, span, columnsInside(width, p, span), T.data(),
+                  G.data(), clipped);
       sumsMasked(right, valid, y0, p, span, T.data(), G.data(), M.data(), masked);
       EXPECT_EQ(clipped.count, masked.count) << "x0=" << x0 << " u=" << u;
       EXPECT_NEAR(clipped.diff_sq, masked.diff_sq, 1e-4 * masked.diff_sq + 1e-3);
