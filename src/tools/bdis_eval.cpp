@@ -1,6 +1,7 @@
 // bdis_eval: scores sequences with ground truth exactly as the data README
 // defines, for this matcher and, in the same run on the same frames, for
 // OpenCV's DIS (fast, medium) and SGBM, so every report carries its baselines.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -39,6 +40,10 @@ options:
   --frames N           use at most N frames per sequence
   --json FILE          also write the results as JSON
   --dump-dir DIR       write every disparity as DIR/<sequence>/<method>/<frame>.png (16-bit, d*256)
+  --predictions DIR    score disparities computed elsewhere (DIR/<frame>.png, 16-bit, d*256,
+                       0 = none; e.g. recorded from the nodelet) as method 'predictions'; one
+                       sequence only; frames without a file are skipped for every method;
+                       other methods run only when --methods names them
                        and bdis confidence as conf_<frame>.png (16-bit, c*65535)
 )";
 
@@ -61,6 +66,11 @@ Method makeBdis(const MatcherParams& params) {
           [result] { return result->confidence; }};
 }
 
+void toGrey(const cv::Mat& image, cv::Mat& grey) {
+  if (image.channels() == 1) grey = image;
+  else cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+}
+
 // OpenCV DIS optical flow from left to right; disparity = -flow_x, negative
 // disparities (physically impossible) count as no estimate.
 Method makeDis(const std::string& name, int preset) {
@@ -68,8 +78,8 @@ Method makeDis(const std::string& name, int preset) {
   auto grey = std::make_shared<std::pair<cv::Mat, cv::Mat>>();
   auto flow = std::make_shared<cv::Mat>();
   return {name, [dis, grey, flow](const cv::Mat& l, const cv::Mat& r, cv::Mat& d) {
-            cv::cvtColor(l, grey->first, cv::COLOR_BGR2GRAY);
-            cv::cvtColor(r, grey->second, cv::COLOR_BGR2GRAY);
+            toGrey(l, grey->first);
+            toGrey(r, grey->second);
             dis->calc(grey->first, grey->second, *flow);
             d.create(l.size(), CV_32FC1);
             for (int y = 0; y < d.rows; ++y) {
@@ -99,6 +109,13 @@ Method makeSgbm() {
           }};
 }
 
+// Disparities computed elsewhere, one 16-bit PNG per frame name.
+Method makePredictions(const std::string& dir, const std::string* const* current_name) {
+  return {"predictions", [dir, current_name](const cv::Mat&, const cv::Mat&, cv::Mat& d) {
+            d = readDisparityPng((std::filesystem::path(dir) / **current_name).string());
+          }};
+}
+
 struct Row {
   std::string sequence, method;
   size_t frames = 0;
@@ -115,7 +132,8 @@ std::vector<std::string> split(const std::string& s, char sep) {
 
 int run(int argc, char** argv) {
   std::vector<std::string> sequences;
-  std::string preset = "balanced", params_file, json_path, dump_dir;
+  std::string preset = "balanced", params_file, json_path, dump_dir, predictions_dir;
+  bool methods_given = false;
   std::vector<std::string> overrides;
   std::vector<std::string> method_names = {"bdis", "dis_fast", "dis_medium", "sgbm"};
   size_t max_frames = 0;
@@ -133,10 +151,13 @@ int run(int argc, char** argv) {
       overrides.push_back(value());
     } else if (a == "--methods") {
       method_names = split(value(), ',');
+      methods_given = true;
     } else if (a == "--frames") {
       max_frames = static_cast<size_t>(std::stoul(value()));
     } else if (a == "--dump-dir") {
       dump_dir = value();
+    } else if (a == "--predictions") {
+      predictions_dir = value();
     } else if (a == "--json") {
       json_path = value();
     } else if (!a.empty() && a[0] == '-') {
@@ -146,12 +167,24 @@ int run(int argc, char** argv) {
     }
   }
   if (sequences.empty()) throw UsageError(std::string("no sequence given\n") + kUsage);
+  if (!predictions_dir.empty()) {
+    if (sequences.size() != 1) throw UsageError("--predictions scores one sequence");
+    if (!std::filesystem::is_directory(predictions_dir))
+      throw std::runtime_error("--predictions " + predictions_dir + " is not a directory");
+    if (!methods_given) method_names.clear();
+  }
   MatcherParams params = resolveParams(preset, params_file);
   for (const std::string& o : overrides) params = applyOverride(params, o);
   params.validate();
 
   cv::setNumThreads(1);  // every method single-threaded, as the matcher is
   std::vector<Method> methods;
+  const std::string* frame_name = nullptr;  // the frame being scored, for makePredictions
+  if (!predictions_dir.empty()) methods.push_back(makePredictions(predictions_dir, &frame_name));
+  const auto listed = std::remove(method_names.begin(), method_names.end(), "predictions");
+  if (listed != method_names.end() && predictions_dir.empty())
+    throw UsageError("method predictions needs --predictions DIR");
+  method_names.erase(listed, method_names.end());  // added above when the directory is given
   for (const std::string& m : method_names) {
     if (m == "bdis") methods.push_back(makeBdis(params));
     else if (m == "dis_fast") methods.push_back(makeDis(m, cv::DISOpticalFlow::PRESET_FAST));
@@ -169,10 +202,18 @@ int run(int argc, char** argv) {
     std::vector<std::vector<double>> times(methods.size());
     ProgressBar bar(n, root);
     cv::Mat disparity;
+    size_t scored = 0;
     for (size_t f = 0; f < n; ++f) {
+      frame_name = &seq.names[f];
+      if (!predictions_dir.empty() &&
+          !std::filesystem::exists(std::filesystem::path(predictions_dir) / seq.names[f])) {
+        bar.update(f + 1);
+        continue;
+      }
+      ++scored;
       const cv::Mat left = seq.left(f), right = seq.right(f), gt = seq.groundTruth(f);
       for (size_t m = 0; m < methods.size(); ++m) {
-        if (f == 0) methods[m].run(left, right, disparity);  // untimed warm-up
+        if (scored == 1) methods[m].run(left, right, disparity);  // untimed warm-up
         const double t0 = nowMs();
         methods[m].run(left, right, disparity);
         times[m].push_back(nowMs() - t0);
@@ -193,11 +234,13 @@ int run(int argc, char** argv) {
       bar.update(f + 1);
     }
     bar.finish();
+    if (scored == 0) throw std::runtime_error("no frame of " + root + " has a file in " + predictions_dir);
+    if (scored < n) std::printf("%s: %zu of %zu frames have predictions; scored those\n", root.c_str(), scored, n);
     for (size_t m = 0; m < methods.size(); ++m) {
       seq_rows[m].sequence = seq.root.substr(seq.root.find_last_of('/') + 1);
       if (seq_rows[m].sequence.empty()) seq_rows[m].sequence = seq.root;
       seq_rows[m].method = methods[m].name;
-      seq_rows[m].frames = n;
+      seq_rows[m].frames = scored;
       seq_rows[m].median_ms = median(times[m]);
       rows.push_back(std::move(seq_rows[m]));
     }
@@ -206,8 +249,10 @@ int run(int argc, char** argv) {
   std::printf("%-28s %-11s %7s %9s %8s %8s %8s %8s %13s\n", "sequence", "method", "frames",
               "ms/frame", "density", "median", "mean", "bad2", "miss_or_bad2");
   for (const Row& r : rows) {
-    std::printf("%-28s %-11s %7zu %9.2f %8.3f %8.3f %8.3f %7.1f%% %12.1f%%\n", r.sequence.c_str(),
-                r.method.c_str(), r.frames, r.median_ms, r.score.density(), r.score.medianError(),
+    char ms[32] = "        -";  // predictions were computed elsewhere: no time here
+    if (r.method != "predictions") std::snprintf(ms, sizeof ms, "%9.2f", r.median_ms);
+    std::printf("%-28s %-11s %7zu %s %8.3f %8.3f %8.3f %7.1f%% %12.1f%%\n", r.sequence.c_str(),
+                r.method.c_str(), r.frames, ms, r.score.density(), r.score.medianError(),
                 r.score.meanError(), 100 * r.score.bad2Rate(), 100 * r.score.missOrBad2Rate());
   }
   if (!json_path.empty()) {
