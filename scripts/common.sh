@@ -24,6 +24,8 @@ DEBIAN_PACKAGES=(
   # rostests: the test nodes are Python
   librostest-dev python3-rostest python3-sensor-msgs python3-stereo-msgs python3-geometry-msgs
   python3-std-msgs python3-tf2-msgs python3-diagnostic-msgs python3-rosgraph-msgs
+  # the demo (scripts/bdis_demo) and its rviz test under a virtual display
+  python3-catkin rviz xvfb imagemagick libgl1-mesa-dri
 )
 
 sudo_if_needed() {

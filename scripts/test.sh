@@ -47,6 +47,22 @@ else
   log "rostest is not installed: skipping the ROS tests (they fail under CI=true)"
 fi
 
+# The demo's pipeline (scripts/bdis_demo): sample, rviz screenshot under Xvfb,
+# a user's bag, a shared-data folder, Ctrl-C. Results via rosunit; the rviz
+# screenshot is kept in $ARTIFACTS_DIR.
+ARTIFACTS_DIR="$WS_DIR/build/test_artifacts"
+rm -rf "$ARTIFACTS_DIR"
+mkdir -p "$ARTIFACTS_DIR"
+log "running the demo tests (test/demo/test_demo.py, ~2 min)"
+if ! ROS_TEST_RESULTS_DIR="$RESULTS_DIR" BDIS_TEST_ARTIFACTS="$ARTIFACTS_DIR" \
+    "$PYTHON_EXE" "$REPO_DIR/test/demo/test_demo.py" >"$RESULTS_DIR/demo.log" 2>&1; then
+  status=1
+  tail -n 60 "$RESULTS_DIR/demo.log"
+  log "demo tests failed (full log: $RESULTS_DIR/demo.log)"
+fi
+[ -f "$RESULTS_DIR/bdis_stereo/rosunit-demo.xml" ] || { status=1; log "the demo tests wrote no results"; }
+log "test artifacts (rviz screenshot): $ARTIFACTS_DIR"
+
 # Summary over every result file.
 "$PYTHON_EXE" "$REPO_DIR/scripts/summarize_results.py" "$RESULTS_DIR" || status=1
 exit $status

@@ -61,10 +61,20 @@ class TestBagDemo(unittest.TestCase):
         with rosbag.Bag(self.bag) as bag:
             info = bag.get_type_and_topic_info().topics
             self.assertEqual(sorted(info), ["/stereo/left/camera_info", "/stereo/left/image_rect",
-                                            "/stereo/right/camera_info", "/stereo/right/image_rect"])
-            self.assertTrue(all(t.message_count == FRAMES for t in info.values()))
+                                            "/stereo/right/camera_info", "/stereo/right/image_rect",
+                                            "/tf_static"])
+            self.assertTrue(all(t.message_count == FRAMES for n, t in info.items() if n != "/tf_static"))
+            self.assertEqual(info["/tf_static"].message_count, 1)
             stamps = {}
-            for topic, msg, _ in bag.read_messages():
+            for topic, msg, _, header in bag.read_messages(return_connection_header=True):
+                if topic == "/tf_static":  # the rig: right optical frame at +baseline along x, latched
+                    t = msg.transforms[0]
+                    self.assertEqual((t.header.frame_id, t.child_frame_id),
+                                     ("stereo_left_optical", "stereo_right_optical"))
+                    self.assertAlmostEqual(t.transform.translation.x, u.BASELINE)
+                    self.assertEqual(t.transform.rotation.w, 1.0)
+                    self.assertIn(header.get("latching"), ("1", b"1"))
+                    continue
                 stamps.setdefault(topic, []).append(msg.header.stamp.to_sec())
                 if topic == "/stereo/right/camera_info":
                     self.assertAlmostEqual(msg.P[3], -u.FX * u.BASELINE)
