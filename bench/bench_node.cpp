@@ -1,0 +1,249 @@
+// bdis_node_bench: replays a stereo bag (made by bdis_make_bag) at a fixed
+// rate into a running stereo node, restamping every frame with the time it is
+// published, and measures which frames come out and when: latency = arrival
+// of the frame's last subscribed output here minus its stamp (= its publish
+// time). Works for any node with the stereo_image_proc interface (inputs
+// NS/{left,right}/{image_rect,camera_info}), so the same run measures
+// bdis_stereo and stereo_image_proc. Prints one table row; --json appends.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <ros/ros.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <stereo_msgs/DisparityImage.h>
+
+namespace {
+
+constexpr const char* kUsage = R"(usage: bdis_node_bench --bag FILE --label NAME [options]
+  --ns NS            stereo namespace of the node under test (default /stereo)
+  --bag-ns NS        namespace of the topics in the bag (default /stereo)
+  --rate HZ          frames per second (default 60)
+  --seconds S        measured duration (default 20), after --warmup seconds (default 3)
+  --outputs LIST     subscribed outputs, relative to NS (default disparity,depth/image_rect,points2)
+  --json FILE        append the result as one JSON line
+)";
+
+struct Frame {
+  sensor_msgs::Image left, right;
+  sensor_msgs::CameraInfo left_info, right_info;
+};
+
+struct Options {
+  std::string bag, label, ns = "/stereo", bag_ns = "/stereo", json;
+  double rate = 60, seconds = 20, warmup = 3;
+  std::vector<std::string> outputs = {"disparity", "depth/image_rect", "points2"};
+};
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  for (std::string item; std::getline(ss, item, ',');) if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+std::vector<Frame> loadBag(const Options& o) {
+  rosbag::Bag bag(o.bag, rosbag::bagmode::Read);
+  const std::string li = o.bag_ns + "/left/image_rect", ri = o.bag_ns + "/right/image_rect";
+  const std::string lc = o.bag_ns + "/left/camera_info", rc = o.bag_ns + "/right/camera_info";
+  std::map<ros::Time, Frame> by_stamp;
+  std::map<ros::Time, int> parts;
+  rosbag::View view(bag, rosbag::TopicQuery({li, ri, lc, rc}));
+  for (const rosbag::MessageInstance& m : view) {
+    if (auto img = m.instantiate<sensor_msgs::Image>()) {
+      Frame& f = by_stamp[img->header.stamp];
+      (m.getTopic() == li ? f.left : f.right) = *img;
+      ++parts[img->header.stamp];
+    } else if (auto info = m.instantiate<sensor_msgs::CameraInfo>()) {
+      Frame& f = by_stamp[info->header.stamp];
+      (m.getTopic() == lc ? f.left_info : f.right_info) = *info;
+      ++parts[info->header.stamp];
+    }
+  }
+  std::vector<Frame> frames;
+  for (auto& [stamp, f] : by_stamp) if (parts[stamp] == 4) frames.push_back(std::move(f));
+  return frames;
+}
+
+/// Arrival times of every output per stamp (nanoseconds of ros::Time).
+class Arrivals {
+ public:
+  explicit Arrivals(size_t topics) : topics_(topics) {}
+  void record(const ros::Time& stamp, size_t topic) {
+    const ros::Time now = ros::Time::now();
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto& slot = arrivals_[stamp.toNSec()];
+    if (slot.empty()) slot.assign(topics_, 0);
+    if (slot[topic] == 0) slot[topic] = now.toNSec();
+  }
+  /// Latest arrival of all topics, or 0 if one never came.
+  uint64_t complete(uint64_t stamp) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = arrivals_.find(stamp);
+    if (it == arrivals_.end()) return 0;
+    uint64_t last = 0;
+    for (uint64_t t : it->second) {
+      if (t == 0) return 0;
+      last = std::max(last, t);
+    }
+    return last;
+  }
+
+ private:
+  size_t topics_;
+  mutable std::mutex mutex_;
+  std::map<uint64_t, std::vector<uint64_t>> arrivals_;
+};
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const double pos = q / 100.0 * static_cast<double>(v.size() - 1);
+  const size_t i = static_cast<size_t>(pos);
+  const double frac = pos - static_cast<double>(i);
+  return i + 1 < v.size() ? v[i] * (1 - frac) + v[i + 1] * frac : v[i];
+}
+
+int run(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+      return argv[++i];
+    };
+    if (a == "--bag") o.bag = value();
+    else if (a == "--label") o.label = value();
+    else if (a == "--ns") o.ns = value();
+    else if (a == "--bag-ns") o.bag_ns = value();
+    else if (a == "--rate") o.rate = std::stod(value());
+    else if (a == "--seconds") o.seconds = std::stod(value());
+    else if (a == "--warmup") o.warmup = std::stod(value());
+    else if (a == "--outputs") o.outputs = split(value());
+    else if (a == "--json") o.json = value();
+    else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
+    else throw std::invalid_argument("unknown option " + a);
+  }
+  if (o.bag.empty() || o.label.empty() || !(o.rate > 0) || o.outputs.empty())
+    throw std::invalid_argument(std::string("--bag, --label, a rate > 0 and outputs are needed\n") + kUsage);
+
+  const std::vector<Frame> frames = loadBag(o);
+  if (frames.empty()) throw std::runtime_error("no complete stereo frame under " + o.bag_ns + " in " + o.bag);
+
+  ros::NodeHandle nh;
+  const ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
+  ros::Publisher pub_l = nh.advertise<sensor_msgs::Image>(o.ns + "/left/image_rect", 1);
+  ros::Publisher pub_r = nh.advertise<sensor_msgs::Image>(o.ns + "/right/image_rect", 1);
+  ros::Publisher pub_li = nh.advertise<sensor_msgs::CameraInfo>(o.ns + "/left/camera_info", 1);
+  ros::Publisher pub_ri = nh.advertise<sensor_msgs::CameraInfo>(o.ns + "/right/camera_info", 1);
+
+  Arrivals arrivals(o.outputs.size());
+  std::vector<ros::Subscriber> subs;
+  for (size_t k = 0; k < o.outputs.size(); ++k) {
+    const std::string topic = o.ns + "/" + o.outputs[k];
+    const std::string& name = o.outputs[k];
+    if (name == "disparity") {
+      subs.push_back(nh.subscribe<stereo_msgs::DisparityImage>(
+          topic, 5, [&arrivals, k](const stereo_msgs::DisparityImageConstPtr& m) { arrivals.record(m->header.stamp, k); },
+          ros::VoidConstPtr(), hints));
+    } else if (name.find("points") != std::string::npos) {
+      subs.push_back(nh.subscribe<sensor_msgs::PointCloud2>(
+          topic, 5, [&arrivals, k](const sensor_msgs::PointCloud2ConstPtr& m) { arrivals.record(m->header.stamp, k); },
+          ros::VoidConstPtr(), hints));
+    } else {
+      subs.push_back(nh.subscribe<sensor_msgs::Image>(
+          topic, 5, [&arrivals, k](const sensor_msgs::ImageConstPtr& m) { arrivals.record(m->header.stamp, k); },
+          ros::VoidConstPtr(), hints));
+    }
+  }
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+
+  // The node subscribes lazily: wait until it takes the inputs and offers the outputs.
+  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(60);
+  auto connected = [&] {
+    if (pub_l.getNumSubscribers() == 0 || pub_r.getNumSubscribers() == 0 ||
+        pub_li.getNumSubscribers() == 0 || pub_ri.getNumSubscribers() == 0)
+      return false;
+    for (const ros::Subscriber& s : subs) if (s.getNumPublishers() == 0) return false;
+    return true;
+  };
+  while (ros::ok() && !connected()) {
+    if (ros::WallTime::now() > give_up) throw std::runtime_error("the node under " + o.ns + " never connected");
+    ros::WallDuration(0.05).sleep();
+  }
+
+  // Fixed-rate replay: frame k leaves at t0 + k / rate (steady clock), stamped now.
+  using Clock = std::chrono::steady_clock;
+  const size_t total = static_cast<size_t>((o.warmup + o.seconds) * o.rate);
+  const size_t first_measured = static_cast<size_t>(o.warmup * o.rate);
+  std::vector<uint64_t> stamps(total, 0);
+  const Clock::time_point t0 = Clock::now() + std::chrono::milliseconds(200);
+  size_t late = 0;
+  for (size_t k = 0; k < total && ros::ok(); ++k) {
+    const auto due = t0 + std::chrono::nanoseconds(static_cast<int64_t>(1e9 * static_cast<double>(k) / o.rate));
+    if (Clock::now() > due + std::chrono::milliseconds(2)) ++late;
+    std::this_thread::sleep_until(due);
+    const Frame& f = frames[k % frames.size()];
+    const ros::Time stamp = ros::Time::now();
+    sensor_msgs::ImagePtr l(new sensor_msgs::Image(f.left)), r(new sensor_msgs::Image(f.right));
+    sensor_msgs::CameraInfoPtr li(new sensor_msgs::CameraInfo(f.left_info)), ri(new sensor_msgs::CameraInfo(f.right_info));
+    l->header.stamp = r->header.stamp = li->header.stamp = ri->header.stamp = stamp;
+    pub_li.publish(li);
+    pub_ri.publish(ri);
+    pub_l.publish(l);
+    pub_r.publish(r);
+    stamps[k] = stamp.toNSec();
+  }
+  ros::WallDuration(1.0).sleep();  // the last frames are still in the pipeline
+
+  std::vector<double> latency_ms;
+  uint64_t first_out = 0, last_out = 0;
+  const size_t measured = total - first_measured;
+  for (size_t k = first_measured; k < total; ++k) {
+    const uint64_t done = arrivals.complete(stamps[k]);
+    if (done == 0) continue;
+    latency_ms.push_back(1e-6 * static_cast<double>(done - stamps[k]));
+    first_out = first_out ? std::min(first_out, done) : done;
+    last_out = std::max(last_out, done);
+  }
+  const size_t out = latency_ms.size();
+  const double out_rate = out > 1 ? 1e9 * static_cast<double>(out - 1) / static_cast<double>(last_out - first_out) : 0;
+  std::printf("%-34s %6.0f Hz %6zu %6zu %6.1f%% %8.1f Hz %7.1f %7.1f %7.1f %7.1f\n", o.label.c_str(), o.rate,
+              measured, out, 100.0 * static_cast<double>(out) / static_cast<double>(measured), out_rate,
+              percentile(latency_ms, 50), percentile(latency_ms, 95), percentile(latency_ms, 99),
+              latency_ms.empty() ? 0.0 : *std::max_element(latency_ms.begin(), latency_ms.end()));
+  if (late > total / 20) std::fprintf(stderr, "bdis_node_bench: %zu of %zu frames left late (> 2 ms)\n", late, total);
+  if (!o.json.empty()) {
+    std::ofstream js(o.json, std::ios::app);
+    js << "{\"label\": \"" << o.label << "\", \"rate_hz\": " << o.rate << ", \"frames_sent\": " << measured
+       << ", \"frames_out\": " << out << ", \"output_rate_hz\": " << out_rate
+       << ", \"latency_ms_p50\": " << percentile(latency_ms, 50) << ", \"latency_ms_p95\": " << percentile(latency_ms, 95)
+       << ", \"latency_ms_p99\": " << percentile(latency_ms, 99) << ", \"late_sends\": " << late << "}\n";
+  }
+  spinner.stop();
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "bdis_node_bench", ros::init_options::AnonymousName);
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bdis_node_bench: %s\n", e.what());
+    return 1;
+  }
+}
