@@ -31,6 +31,7 @@ constexpr const char* kUsage = R"(usage: bdis_node_bench --bag FILE --label NAME
   --bag-ns NS        namespace of the topics in the bag (default /stereo)
   --rate HZ          frames per second (default 60)
   --seconds S        measured duration (default 20), after --warmup seconds (default 3)
+  --frames N         send exactly N frames instead (after the warm-up), e.g. for a soak test
   --outputs LIST     subscribed outputs, relative to NS (default disparity,depth/image_rect,points2)
   --json FILE        append the result as one JSON line
 )";
@@ -43,6 +44,7 @@ struct Frame {
 struct Options {
   std::string bag, label, ns = "/stereo", bag_ns = "/stereo", json;
   double rate = 60, seconds = 20, warmup = 3;
+  size_t frames = 0;  // 0: seconds * rate
   std::vector<std::string> outputs = {"disparity", "depth/image_rect", "points2"};
 };
 
@@ -86,6 +88,12 @@ class Arrivals {
     auto& slot = arrivals_[stamp.toNSec()];
     if (slot.empty()) slot.assign(topics_, 0);
     if (slot[topic] == 0) slot[topic] = now.toNSec();
+    ++received_[topic];
+  }
+  size_t received(size_t topic) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = received_.find(topic);
+    return it == received_.end() ? 0 : it->second;
   }
   /// Latest arrival of all topics, or 0 if one never came.
   uint64_t complete(uint64_t stamp) const {
@@ -104,6 +112,7 @@ class Arrivals {
   size_t topics_;
   mutable std::mutex mutex_;
   std::map<uint64_t, std::vector<uint64_t>> arrivals_;
+  std::map<size_t, size_t> received_;  // messages per topic, warm-up included
 };
 
 double percentile(std::vector<double> v, double q) {
@@ -130,6 +139,7 @@ int run(int argc, char** argv) {
     else if (a == "--rate") o.rate = std::stod(value());
     else if (a == "--seconds") o.seconds = std::stod(value());
     else if (a == "--warmup") o.warmup = std::stod(value());
+    else if (a == "--frames") o.frames = std::stoul(value());
     else if (a == "--outputs") o.outputs = split(value());
     else if (a == "--json") o.json = value();
     else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
@@ -186,8 +196,8 @@ int run(int argc, char** argv) {
 
   // Fixed-rate replay: frame k leaves at t0 + k / rate (steady clock), stamped now.
   using Clock = std::chrono::steady_clock;
-  const size_t total = static_cast<size_t>((o.warmup + o.seconds) * o.rate);
   const size_t first_measured = static_cast<size_t>(o.warmup * o.rate);
+  const size_t total = first_measured + (o.frames ? o.frames : static_cast<size_t>(o.seconds * o.rate));
   std::vector<uint64_t> stamps(total, 0);
   const Clock::time_point t0 = Clock::now() + std::chrono::milliseconds(200);
   size_t late = 0;
@@ -230,7 +240,11 @@ int run(int argc, char** argv) {
     js << "{\"label\": \"" << o.label << "\", \"rate_hz\": " << o.rate << ", \"frames_sent\": " << measured
        << ", \"frames_out\": " << out << ", \"output_rate_hz\": " << out_rate
        << ", \"latency_ms_p50\": " << percentile(latency_ms, 50) << ", \"latency_ms_p95\": " << percentile(latency_ms, 95)
-       << ", \"latency_ms_p99\": " << percentile(latency_ms, 99) << ", \"late_sends\": " << late << "}\n";
+       << ", \"latency_ms_p99\": " << percentile(latency_ms, 99) << ", \"late_sends\": " << late
+       << ", \"frames_sent_total\": " << total << ", \"received_total\": {";
+    for (size_t k = 0; k < o.outputs.size(); ++k)
+      js << (k ? ", " : "") << "\"" << o.outputs[k] << "\": " << arrivals.received(k);
+    js << "}}\n";
   }
   spinner.stop();
   return 0;
