@@ -210,6 +210,7 @@ int run(int argc, char** argv) {
     sensor_msgs::ImagePtr l(new sensor_msgs::Image(f.left)), r(new sensor_msgs::Image(f.right));
     sensor_msgs::CameraInfoPtr li(new sensor_msgs::CameraInfo(f.left_info)), ri(new sensor_msgs::CameraInfo(f.right_info));
     l->header.stamp = r->header.stamp = li->header.stamp = ri->header.stamp = stamp;
+    l->header.seq = r->header.seq = li->header.seq = ri->header.seq = static_cast<uint32_t>(k);
     pub_li.publish(li);
     pub_ri.publish(ri);
     pub_l.publish(l);

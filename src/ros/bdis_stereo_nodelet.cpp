@@ -261,9 +261,18 @@ void BdisStereoNodelet::onInit() {
   }
   // Per-topic counters, for the "no synchronised pair" warning and diagnostics.
   sub_l_image_.registerCallback(boost::function<void(const sensor_msgs::ImageConstPtr&)>(
-      [this](const sensor_msgs::ImageConstPtr&) {
+      [this](const sensor_msgs::ImageConstPtr& image) {
         std::lock_guard<std::mutex> l(stats_mutex_);
         ++total_.left_images;
+        // A full subscriber queue drops the oldest message without a word:
+        // count the gaps of the publisher's sequence number. A seq that does
+        // not advance (drivers that leave it 0) or goes back (a new publisher,
+        // a bag loop) only restarts the count.
+        const uint32_t seq = image->header.seq;
+        if (have_left_seq_ && seq > last_left_seq_ && seq - last_left_seq_ < 1000000u)
+          total_.left_images_lost += seq - last_left_seq_ - 1;
+        last_left_seq_ = seq;
+        have_left_seq_ = true;
       }));
   sub_r_image_.registerCallback(boost::function<void(const sensor_msgs::ImageConstPtr&)>(
       [this](const sensor_msgs::ImageConstPtr&) {
@@ -618,6 +627,7 @@ void BdisStereoNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& st
   stat.addf("latency_ms_p50", "%.2f", p50);
   stat.addf("latency_ms_max", "%.2f", lat_max);
   stat.add("left_images", total_.left_images);
+  stat.add("left_images_lost", total_.left_images_lost);
   stat.add("right_images", total_.right_images);
   stat.add("left_camera_infos", total_.left_infos);
   stat.add("right_camera_infos", total_.right_infos);

@@ -124,6 +124,7 @@ class BdisStereoNodelet : public nodelet::Nodelet {
   std::mutex stats_mutex_;
   struct Counters {
     uint64_t left_images = 0, right_images = 0, left_infos = 0, right_infos = 0;
+    uint64_t left_images_lost = 0;  // gaps in the left image's header.seq: lost before this nodelet
     uint64_t frames_in = 0;       // synchronised pairs received
     uint64_t frames_out = 0;      // pairs processed and published
     uint64_t dropped_busy = 0;    // replaced in the mailbox while the worker was busy
@@ -131,6 +132,8 @@ class BdisStereoNodelet : public nodelet::Nodelet {
     uint64_t errors = 0;          // exception while processing
   };
   Counters total_, window_start_;
+  uint32_t last_left_seq_ = 0;
+  bool have_left_seq_ = false;
   ros::WallTime window_start_time_;
   double proc_ms_sum_ = 0.0, proc_ms_max_ = 0.0;
   uint64_t proc_count_ = 0;
