@@ -10,6 +10,8 @@
 #include <pluginlib/class_list_macros.hpp>
 #include <tf2/LinearMath/Matrix3x3.h>
 #include <tf2/LinearMath/Quaternion.h>
+
+#include "bdis_stereo/pair_check.hpp"
 #include <sensor_msgs/PointCloud2.h>
 #include <stereo_msgs/DisparityImage.h>
 
@@ -468,6 +470,23 @@ void BdisStereoNodelet::process(const Frame& frame) {
     } else {
       cv::cvtColor(rv, grey_buffer_, cv::COLOR_BGR2GRAY);
       rv = grey_buffer_;
+    }
+  }
+  // Swapped cameras with correct camera_infos pass every check above; the
+  // matcher (d >= 0 only) would publish garbage. A coarse search of both signs
+  // tells (about 2 ms at 640x480): on the first frame, then once a second (a
+  // swap is a setup error, there from the start) and on every frame while it fails.
+  if (looks_swapped_ || (start - last_sign_check_).toSec() >= kSignCheckPeriod) {
+    const bdis::DisparitySignCheck sign = bdis::checkDisparitySign(lv, rv);
+    last_sign_check_ = start;
+    looks_swapped_ = sign.looksSwapped();
+    if (looks_swapped_) {
+      std::ostringstream os;
+      os << sign.negative << " of " << sign.distinct_patches
+         << " distinct matches lie at negative disparity (the scene is further right in the left image "
+            "than in the right one): are the cameras swapped? Check the left/right topic remaps";
+      reject(os.str());
+      return;
     }
   }
   matcher_.compute(lv, rv, result_);

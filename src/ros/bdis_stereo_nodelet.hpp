@@ -132,6 +132,9 @@ class BdisStereoNodelet : public nodelet::Nodelet {
     uint64_t errors = 0;          // exception while processing
   };
   Counters total_, window_start_;
+  static constexpr double kSignCheckPeriod = 1.0;  // s between checks for swapped cameras
+  ros::WallTime last_sign_check_;
+  bool looks_swapped_ = false;
   uint32_t last_left_seq_ = 0;
   bool have_left_seq_ = false;
   ros::WallTime window_start_time_;

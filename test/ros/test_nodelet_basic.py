@@ -202,6 +202,10 @@ class TestNodeletBasic(unittest.TestCase):
                 ("swapped", lambda s: (u.image_msg(L, s), u.image_msg(R, s, u.RIGHT_FRAME),
                                        u.info_msg(s), u.info_msg(s, u.RIGHT_FRAME, tx=-tx)),
                  "are the cameras swapped?"),
+                # Images swapped, camera_infos right: only the images tell.
+                ("swapped images", lambda s: (u.image_msg(R, s), u.image_msg(L, s, u.RIGHT_FRAME),
+                                              u.info_msg(s), u.info_msg(s, u.RIGHT_FRAME, tx=tx)),
+                 "distinct matches lie at negative disparity"),
                 ("16-bit", lambda s: (u.image_msg(L[..., 0].astype(np.uint16), s, encoding="mono16"),
                                       u.image_msg(R, s, u.RIGHT_FRAME), u.info_msg(s),
                                       u.info_msg(s, u.RIGHT_FRAME, tx=tx)),
@@ -222,6 +226,10 @@ class TestNodeletBasic(unittest.TestCase):
                  "left camera_info is for 640x480"),
             ]
             for name, make, text in cases:
+                if name == "swapped images":
+                    # The image check runs on the first frame and then once a
+                    # second (a swap is a setup error, there from the start).
+                    rospy.sleep(1.2)
                 bad = Stamps.next()
                 u.publish_until(lambda: self.inputs.publish(*make(bad)), lambda: self.rosout.find(text),
                                 15.0, "a log line containing %r" % text)
