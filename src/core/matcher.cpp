@@ -99,8 +99,7 @@ struct SearchPass {
   std::vector<PatchEstimate> patches;
 
   // Per-patch scratch, p*p or row-sized.
-  std::vector<float> tmpl, grad, spatial, row_buf, costs, likelihood, window_sum, window_sq;
-  std::vector<uchar> tmpl_valid;
+  std::vector<float> spatial, row_buf, costs, likelihood, window_sum, window_sq;
 
   /// What depends only on the parameters (kernels, spatial Gaussian): done
   /// when they are set, not per frame.
@@ -110,18 +109,20 @@ struct SearchPass {
   /// in level_disparity / level_confidence / level_variance.
   void run(const cv::Mat& reference, const cv::Mat& other, int levels);
   void matchLevel(int s, bool finest);
-  // The patch being searched: template, gradient and validity in the scratch
-  // buffers, plus the constant sums the fast path takes from integral images.
+  // The patch being searched: template, gradient and validity read in place
+  // from the level, plus the constant sums the fast path takes from integral images.
   struct CurrentPatch {
     const PyramidLevel* level = nullptr;
     int x0 = 0, y0 = 0;
+    detail::PatchView view{};
+    const uchar* valid = nullptr;  ///< left validity at (x0, y0), rows level->left_valid.step apart
     bool left_all_valid = false;
     float g_sum = 0.f, g_sq_sum = 0.f;
   } cur;
   std::vector<uchar> patch_loaded;
   /// Loads the left patch at (x0, y0); false when too few of its pixels are valid.
   bool loadPatch(const PyramidLevel& L, int x0, int y0);
-  void patchSums(float u, bool want_cost, ResidualSums& r);
+  void patchSums(float u, ResidualSums& r);
   /// Mean squared residual at disparity u (mean-normalised if enabled); +inf without pixels.
   float patchCost(float u, float* valid_count = nullptr);
   float refinePatch(float u_start);
@@ -196,10 +197,6 @@ void SearchPass::allocate(cv::Size size, int levels) {
   }
   // xs, ys, patches and patch_loaded grow to the finest level's size on the
   // first frame and keep that capacity afterwards.
-  const size_t pp = static_cast<size_t>(p) * p;
-  tmpl.resize(pp);
-  grad.resize(pp);
-  tmpl_valid.resize(pp);
   const int max_window_span = static_cast<int>(
       std::ceil(2.f * static_cast<float>(params.window_half_width) * params.window_step));
   row_buf.resize(static_cast<size_t>(p + max_window_span + 2));
@@ -340,31 +337,26 @@ bool SearchPass::loadPatch(const PyramidLevel& L, int x0, int y0) {
   if (static_cast<float>(pp - left_invalid) < params.min_valid_share * static_cast<float>(pp)) {
     return false;  // mostly outside the rectified view
   }
-  for (int y = 0; y < p; ++y) {
-    std::copy_n(L.left[y0 + y] + x0, p, tmpl.data() + y * p);
-    std::copy_n(L.left_gx[y0 + y] + x0, p, grad.data() + y * p);
-    std::copy_n(L.left_valid[y0 + y] + x0, p, tmpl_valid.data() + y * p);
-  }
-  cur = {&L, x0, y0, left_invalid == 0,
+  cur = {&L, x0, y0, {L.left[y0] + x0, L.left_gx[y0] + x0, rowStride(L.left)},
+         L.left_valid[y0] + x0, left_invalid == 0,
          static_cast<float>(rectSum(L.gx_sum, x0, y0, x0 + p, y0 + p)),
          static_cast<float>(rectSum(L.gx_sq_sum, x0, y0, x0 + p, y0 + p))};
   return true;
 }
 
-void SearchPass::patchSums(float u, bool want_cost, ResidualSums& r) {
+void SearchPass::patchSums(float u, ResidualSums& r) {
   const PyramidLevel& L = *cur.level;
   const int p = params.patch_size;
   const SampleSpan span = detail::sampleSpan(cur.x0, u);
   if (!cur.left_all_valid) {
-    detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, tmpl.data(), grad.data(),
-                       tmpl_valid.data(), r);
+    detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, cur.view, cur.valid,
+                       L.left_valid.step1(), r);
     return;
   }
   // Fast path: the span and its right neighbour column inside the image and valid.
   if (span.base >= 0 && span.base + p < L.width &&
       rectSum(L.right_invalid, span.base, cur.y0, span.base + p + 1, cur.y0 + p) == 0) {
-    kernels->sums_all_valid(L.right[cur.y0], rowStride(L.right), p, span, tmpl.data(), grad.data(),
-                            want_cost, row_buf.data(), r);
+    kernels->sums_all_valid(L.right[cur.y0], rowStride(L.right), p, span, cur.view, r);
     r.g = cur.g_sum;
     r.g_sq = cur.g_sq_sum;
     return;
@@ -374,17 +366,16 @@ void SearchPass::patchSums(float u, bool want_cost, ResidualSums& r) {
   const int taps = span.frac > 0.f ? 1 : 0;
   if (cols.empty() || rectSum(L.right_invalid, span.base + cols.begin, cur.y0,
                               span.base + cols.end + taps, cur.y0 + p) == 0) {
-    detail::sumsClipped(L.right[cur.y0], rowStride(L.right), p, span, cols, tmpl.data(),
-                        grad.data(), r);
+    kernels->sums_clipped(L.right[cur.y0], rowStride(L.right), p, span, cols, cur.view, r);
   } else {
-    detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, tmpl.data(), grad.data(),
-                       tmpl_valid.data(), r);
+    detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, cur.view, cur.valid,
+                       L.left_valid.step1(), r);
   }
 }
 
 float SearchPass::patchCost(float u, float* valid_count) {
   ResidualSums r;
-  patchSums(u, true, r);
+  patchSums(u, r);
   if (valid_count) *valid_count = r.count;
   if (r.count <= 0.f) return std::numeric_limits<float>::infinity();
   const float mean = r.diff / r.count;
@@ -397,7 +388,7 @@ float SearchPass::refinePatch(float u_start) {
   float u = u_start;
   ResidualSums r;
   for (int it = 0; it < params.iterations; ++it) {
-    patchSums(u, false, r);
+    patchSums(u, r);
     if (r.count <= 0.f) break;
     float b = r.g_diff, H = r.g_sq;
     if (params.mean_normalization) {
@@ -427,7 +418,7 @@ float SearchPass::windowCosts(float u) {
     if (lo.base >= 0 && last < L.width &&
         rectSum(L.right_invalid, lo.base, cur.y0, last + 1, cur.y0 + p) == 0) {
       kernels->window_costs(L.right[cur.y0], rowStride(L.right), p, lo.base, lo.frac, 2 * n + 1,
-                            step, tmpl.data(), params.mean_normalization, row_buf.data(),
+                            step, cur.view, params.mean_normalization, row_buf.data(),
                             window_sum.data(), window_sq.data(), costs.data());
       return static_cast<float>(p * p);
     }

@@ -106,7 +106,11 @@ void allocate(PyramidLevel& l, int w, int h) {
   l.width = w;
   l.height = h;
   l.left.create(h, w);
-  l.right.create(h, w);
+  if (l.right_padded.rows != h || l.right_padded.cols != w + 2 * kRightPadding) {
+    l.right_padded.create(h, w + 2 * kRightPadding);
+    l.right_padded.setTo(0.f);  // only the padding stays 0; the view is rewritten per frame
+    l.right = l.right_padded.colRange(kRightPadding, kRightPadding + w);
+  }
   l.left_gx.create(h, w);
   l.left_valid.create(h, w);
   l.right_valid.create(h, w);

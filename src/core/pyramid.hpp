@@ -7,6 +7,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "patch_kernels.hpp"  // kRightPadding
+
 namespace bdis {
 namespace detail {
 
@@ -15,7 +17,8 @@ struct PyramidLevel {
   int width = 0;
   int height = 0;
   cv::Mat1f left;        ///< grey, 0..255
-  cv::Mat1f right;
+  cv::Mat1f right;       ///< a view into right_padded: kRightPadding zero columns each side
+  cv::Mat1f right_padded;
   cv::Mat1f left_gx;     ///< horizontal gradient of left, from valid neighbours only
   cv::Mat1b left_valid;  ///< 1 where the pixel lies inside the rectified view
   cv::Mat1b right_valid;
