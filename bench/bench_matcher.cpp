@@ -21,6 +21,7 @@
 //       Computes the first pair of the first sequence twice and brackets the
 //       second compute with CALLGRIND_START/STOP_INSTRUMENTATION, for
 //       `valgrind --tool=callgrind --instr-atstart=no` (instructions per frame).
+//       --set changes bdis_balanced here too.
 // Pin to one core for stable numbers: taskset -c 1 bdis_bench ...
 #include <benchmark/benchmark.h>
 
@@ -301,7 +302,7 @@ int runTable(int rounds, bool scaling, const bdis::MatcherParams& balanced) {
 
 // ---- --one-frame: instructions of one compute under callgrind -----------------
 
-int runOneFrame(const std::string& which) {
+int runOneFrame(const std::string& which, const bdis::MatcherParams& balanced) {
   cv::setNumThreads(1);
   const Pairs bgr(frames().begin(), frames().begin() + 1);
   Method method;
@@ -310,7 +311,8 @@ int runOneFrame(const std::string& which) {
     method = disFastMethod();
     input = toGrey(bgr);
   } else if (which.rfind("bdis_", 0) == 0) {
-    method = bdisMethod(which, bdis::MatcherParams::preset(which.substr(5)));
+    const std::string preset = which.substr(5);
+    method = bdisMethod(which, preset == "balanced" ? balanced : bdis::MatcherParams::preset(preset));
   } else {
     throw std::invalid_argument("--one-frame takes bdis_fast, bdis_balanced, bdis_accurate or dis_fast");
   }
@@ -347,7 +349,7 @@ int main(int argc, char** argv) {
         rest.push_back(argv[i]);
       }
     }
-    if (!one_frame.empty()) return runOneFrame(one_frame);
+    if (!one_frame.empty()) return runOneFrame(one_frame, balanced);
     if (table) return runTable(rounds, scaling, balanced);
     int bench_argc = static_cast<int>(rest.size());
     benchmark::Initialize(&bench_argc, rest.data());
