@@ -105,9 +105,10 @@ struct SearchPass {
   /// when they are set, not per frame.
   void configure(const MatcherParams& p);
   void allocate(cv::Size size, int levels);
-  /// Matches levels coarsest..finest; leaves the finest level's floored result
-  /// in level_disparity / level_confidence / level_variance.
-  void run(const cv::Mat& reference, const cv::Mat& other, int levels);
+  /// Matches levels coarsest..finest of `pyramid` (built by the caller);
+  /// leaves the finest level's floored result in level_disparity /
+  /// level_confidence / level_variance.
+  void run(int levels);
   void matchLevel(int s, bool finest);
   // The patch being searched: template, gradient and validity read in place
   // from the level, plus the constant sums the fast path takes from integral images.
@@ -144,7 +145,6 @@ struct Matcher::Impl {
   MatcherParams params;
   SearchPass left_pass;   ///< left image as reference: the result
   SearchPass right_pass;  ///< mirrored pair, right image as reference: the check
-  cv::Mat mirrored_left, mirrored_right;
 
   /// Removes left estimates that the right-reference pass does not confirm.
   void leftRightCheck(float tolerance);
@@ -217,15 +217,15 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
 
   m.left_pass.params = P;
   m.left_pass.params.finest_level = finest;
-  m.left_pass.run(left, right, levels);
+  m.left_pass.pyramid.build(left, right, levels, finest);
+  m.left_pass.run(levels);
   if (P.lr_check_tolerance > 0.f) {
-    // Mirroring turns "right as reference" into the same left-reference search.
-    cv::flip(right, m.mirrored_left, 1);
-    cv::flip(left, m.mirrored_right, 1);
     m.right_pass.params = m.left_pass.params;
     m.right_pass.params.compute_variance = false;
     m.right_pass.params.confidence_floor = 0.f;  // any fused estimate may confirm
-    m.right_pass.run(m.mirrored_left, m.mirrored_right, levels);
+    // Mirroring turns "right as reference" into the same left-reference search.
+    m.right_pass.pyramid.buildMirrored(m.left_pass.pyramid, levels, m.right_pass.params.finest_level);
+    m.right_pass.run(levels);
     m.leftRightCheck(P.lr_check_tolerance / static_cast<float>(1 << finest));
   }
   m.left_pass.upsampleToFull(finest, left, result);
@@ -251,10 +251,9 @@ void Matcher::Impl::leftRightCheck(float tolerance) {
   }
 }
 
-void SearchPass::run(const cv::Mat& reference, const cv::Mat& other, int levels) {
+void SearchPass::run(int levels) {
   const int finest = params.finest_level;
-  allocate(reference.size(), levels);
-  pyramid.build(reference, other, levels, finest);
+  allocate(pyramid.size(), levels);
 
   // Start from zero disparity above the coarsest level.
   fill(init_disparity[levels], 0.f);

@@ -40,11 +40,18 @@ class StereoPyramid {
   /// Builds levels 0..num_levels-1 from 8-bit mono or BGR inputs of equal size;
   /// gradients and integral images only from `first_searched_level` on.
   void build(const cv::Mat& left, const cv::Mat& right, int num_levels, int first_searched_level);
+  /// The pyramid of the mirrored pair (the right image, flipped, as the left
+  /// one and vice versa) from `src`'s levels, without converting or
+  /// downsampling again; only levels first_searched_level..num_levels-1.
+  void buildMirrored(const StereoPyramid& src, int num_levels, int first_searched_level);
   const PyramidLevel& level(int s) const { return levels_[s]; }
   int numLevels() const { return static_cast<int>(levels_.size()); }
+  cv::Size size() const { return size_; }  ///< of the input (level 0)
 
  private:
   std::vector<PyramidLevel> levels_;
+  cv::Size size_;
+  cv::Mat colour_planes_[3];  ///< B, G, R of the input being converted
 };
 
 /// Largest level count (>= 1) whose coarsest level still holds one patch of `patch_size`.
