@@ -93,9 +93,14 @@ struct SearchPass {
 
   // Per-level state, sized on the first frame of a given size.
   std::vector<cv::Mat1f> init_disparity;  ///< dense coarse-to-fine initialisation per level
-  cv::Mat1f fused_num, fused_den, conf_sum, cover_count, var_num, var_den;
+  cv::Mat1f fused_num, fused_den, conf_sum, var_num, var_den;
   cv::Mat1f level_disparity, level_confidence, level_variance;  ///< finest level, floored
   std::vector<int> xs, ys;
+  std::vector<float> cover_x, cover_y;  ///< patches covering each column / row of the level
+  // upsampleToFull: the level columns and weight of each output column, and
+  // the level rows blended vertically for the current output row.
+  std::vector<int> up_x0, up_x1;
+  std::vector<float> up_ax, up_weight, up_disparity, up_confidence, up_variance;
   std::vector<PatchEstimate> patches;
 
   // Per-patch scratch, p*p or row-sized.
@@ -138,7 +143,7 @@ struct SearchPass {
   }
   bool adoptIfBetter(float candidate, float& u, float& best_cost);
   void fuseLevel(int s, bool finest);
-  void upsampleToFull(int s, const cv::Mat& left, MatchResult& out) const;
+  void upsampleToFull(int s, MatchResult& out);
 };
 
 struct Matcher::Impl {
@@ -191,10 +196,17 @@ void SearchPass::allocate(cv::Size size, int levels) {
   }
   // Level-sized buffers are allocated at the largest searched level (the finest).
   const cv::Size largest(size.width >> params.finest_level, size.height >> params.finest_level);
-  for (cv::Mat1f* m : {&fused_num, &fused_den, &conf_sum, &cover_count, &var_num, &var_den,
-                       &level_disparity, &level_confidence, &level_variance}) {
+  for (cv::Mat1f* m : {&fused_num, &fused_den, &conf_sum, &var_num, &var_den, &level_disparity,
+                       &level_confidence, &level_variance}) {
     m->create(largest);
   }
+  cover_x.resize(static_cast<size_t>(largest.width));
+  cover_y.resize(static_cast<size_t>(largest.height));
+  for (std::vector<float>* v : {&up_ax, &up_weight, &up_disparity, &up_confidence, &up_variance}) {
+    v->resize(static_cast<size_t>(std::max(size.width, largest.width)));
+  }
+  up_x0.resize(static_cast<size_t>(size.width));
+  up_x1.resize(static_cast<size_t>(size.width));
   // xs, ys, patches and patch_loaded grow to the finest level's size on the
   // first frame and keep that capacity afterwards.
   const int max_window_span = static_cast<int>(
@@ -228,7 +240,7 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
     m.right_pass.run(levels);
     m.leftRightCheck(P.lr_check_tolerance / static_cast<float>(1 << finest));
   }
-  m.left_pass.upsampleToFull(finest, left, result);
+  m.left_pass.upsampleToFull(finest, result);
 }
 
 void Matcher::Impl::leftRightCheck(float tolerance) {
@@ -476,36 +488,61 @@ PatchEstimate SearchPass::patchPosterior(float u) {
   return est;
 }
 
+namespace {
+
+/// Adds one row of a patch's weighted disparity, weight and evidence. The
+/// rows come as __restrict parameters and the patch's values by value, so the
+/// compiler knows no store aliases another input and vectorises the loop.
+void accumulateRow(int p, const float* __restrict g, float posterior, float disparity,
+                   float evidence, float* __restrict num, float* __restrict den,
+                   float* __restrict conf) {
+  for (int x = 0; x < p; ++x) {
+    const float w = posterior * g[x];
+    num[x] += w * disparity;
+    den[x] += w;
+    conf[x] += evidence;
+  }
+}
+
+/// Patches covering each pixel along one axis of a level.
+void coverAlongAxis(const std::vector<int>& origins, int p, std::vector<float>& cover, int extent) {
+  std::fill(cover.begin(), cover.begin() + extent, 0.f);
+  for (int o : origins) {
+    for (int i = o; i < o + p; ++i) cover[static_cast<size_t>(i)] += 1.f;
+  }
+}
+
+}  // namespace
+
 void SearchPass::fuseLevel(int s, bool finest) {
   const PyramidLevel& L = pyramid.level(s);
   const int p = params.patch_size;
   const cv::Rect roi(0, 0, L.width, L.height);
-  cv::Mat1f num = fused_num(roi), den = fused_den(roi), csum = conf_sum(roi),
-            cover = cover_count(roi), vnum = var_num(roi), vden = var_den(roi);
-  for (cv::Mat1f* m : {&num, &den, &csum, &cover, &vnum, &vden}) fill(*m, 0.f);
+  cv::Mat1f num = fused_num(roi), den = fused_den(roi), csum = conf_sum(roi), vnum = var_num(roi),
+            vden = var_den(roi);
   const bool variance = params.compute_variance && finest;
+  for (cv::Mat1f* m : {&num, &den, &csum}) fill(*m, 0.f);
+  if (variance) {
+    fill(vnum, 0.f);
+    fill(vden, 0.f);
+  }
+  // The grid is regular: the patches covering a pixel are those covering its
+  // column times those covering its row.
+  coverAlongAxis(xs, p, cover_x, L.width);
+  coverAlongAxis(ys, p, cover_y, L.height);
 
   size_t k = 0;
   for (int y0 : ys) {
     for (int x0 : xs) {
       const PatchEstimate& e = patches[k++];
-      for (int y = 0; y < p; ++y) {
-        float* c = cover[y0 + y] + x0;
-        for (int x = 0; x < p; ++x) c[x] += 1.f;
-      }
       if (e.posterior <= 0.f) continue;
       for (int y = 0; y < p; ++y) {
-        const float* g = spatial.data() + y * p;
-        float* nr = num[y0 + y] + x0;
-        float* dr = den[y0 + y] + x0;
-        float* cr = csum[y0 + y] + x0;
-        for (int x = 0; x < p; ++x) {
-          const float w = e.posterior * g[x];
-          nr[x] += w * e.disparity;
-          dr[x] += w;
-          cr[x] += e.evidence;
-        }
-        if (variance) {
+        accumulateRow(p, spatial.data() + y * p, e.posterior, e.disparity, e.evidence,
+                      num[y0 + y] + x0, den[y0 + y] + x0, csum[y0 + y] + x0);
+      }
+      if (variance) {
+        for (int y = 0; y < p; ++y) {
+          const float* g = spatial.data() + y * p;
           float* vn = vnum[y0 + y] + x0;
           float* vd = vden[y0 + y] + x0;
           for (int x = 0; x < p; ++x) {
@@ -522,29 +559,39 @@ void SearchPass::fuseLevel(int s, bool finest) {
   // patch survived, otherwise this level's own initialisation.
   cv::Mat1f& init = init_disparity[s];
   const cv::Mat1f& coarse = init_disparity[s + 1];
+  const int w = L.width;
   for (int y = 0; y < L.height; ++y) {
-    const int cy = std::min(y / 2, coarse.rows - 1);
-    for (int x = 0; x < L.width; ++x) {
-      const float d = den(y, x);
-      const float conf = cover(y, x) > 0.f ? csum(y, x) / cover(y, x) : 0.f;
-      init(y, x) = d > 0.f ? num(y, x) / d : 2.f * coarse(cy, std::min(x / 2, coarse.cols - 1));
-      if (finest) {
-        const bool keep = d > 0.f && conf >= params.confidence_floor;
-        level_disparity(y, x) = keep ? init(y, x) : kNoDisparity;
-        level_confidence(y, x) = keep ? conf : 0.f;
-        // Squared weights can underflow for a tiny sigma_s: report the maximal
-        // variance then rather than 0/0.
-        if (variance) {
-          level_variance(y, x) =
-              !keep ? kNaN : vden(y, x) > 0.f ? vnum(y, x) / vden(y, x) : maxVariance();
-        }
-      }
+    const float* nr = num[y];
+    const float* dr = den[y];
+    const float* cr = csum[y];
+    const float* coarse_row = coarse[std::min(y / 2, coarse.rows - 1)];
+    float* ir = init[y];
+    for (int x = 0; x < w; ++x) {
+      ir[x] = dr[x] > 0.f ? nr[x] / dr[x] : 2.f * coarse_row[std::min(x / 2, coarse.cols - 1)];
+    }
+    if (!finest) continue;
+    float* dout = level_disparity[y];
+    float* cout = level_confidence[y];
+    const float cover_row = cover_y[static_cast<size_t>(y)];
+    for (int x = 0; x < w; ++x) {
+      const float conf = cr[x] / (cover_row * cover_x[static_cast<size_t>(x)]);
+      const bool keep = dr[x] > 0.f && conf >= params.confidence_floor;
+      dout[x] = keep ? ir[x] : kNoDisparity;
+      cout[x] = keep ? conf : 0.f;
+    }
+    if (!variance) continue;
+    float* vout = level_variance[y];
+    for (int x = 0; x < w; ++x) {
+      // Squared weights can underflow for a tiny sigma_s: report the maximal
+      // variance then rather than 0/0.
+      vout[x] = dout[x] < 0.f ? kNaN : vden(y, x) > 0.f ? vnum(y, x) / vden(y, x) : maxVariance();
     }
   }
 }
 
-void SearchPass::upsampleToFull(int s, const cv::Mat& left, MatchResult& out) const {
-  const int W = left.cols, H = left.rows;
+void SearchPass::upsampleToFull(int s, MatchResult& out) {
+  const cv::Size full_size = pyramid.size();
+  const int W = full_size.width, H = full_size.height;
   const PyramidLevel& L = pyramid.level(s);
   const bool variance = params.compute_variance;
   out.disparity.create(H, W, CV_32FC1);
@@ -558,39 +605,63 @@ void SearchPass::upsampleToFull(int s, const cv::Mat& left, MatchResult& out) co
   const float scale = static_cast<float>(1 << s);
   const float inv = 1.f / scale;
   const float var_scale = scale * scale;
+  // Bilinear among the neighbours that have an estimate. The taps of a
+  // column are the same on every row: computed once per frame.
+  for (int x = 0; x < W; ++x) {
+    const float fx = std::clamp((static_cast<float>(x) + 0.5f) * inv - 0.5f, 0.f,
+                                static_cast<float>(L.width - 1));
+    up_x0[static_cast<size_t>(x)] = static_cast<int>(fx);
+    up_x1[static_cast<size_t>(x)] = std::min(static_cast<int>(fx) + 1, L.width - 1);
+    up_ax[static_cast<size_t>(x)] = fx - static_cast<float>(static_cast<int>(fx));
+  }
+  float* vw = up_weight.data();
+  float* vd = up_disparity.data();
+  float* vc = up_confidence.data();
+  float* vv = up_variance.data();
   for (int y = 0; y < H; ++y) {
-    float* dout = out.disparity.ptr<float>(y);
-    float* cout = out.confidence.ptr<float>(y);
-    float* vout = variance ? out.variance.ptr<float>(y) : nullptr;
-    const uchar* valid = full.left_valid[y];
+    // Blend the two level rows first (weights of rows with an estimate, and
+    // weighted values), then the two columns of each output pixel.
     const float fy = std::clamp((static_cast<float>(y) + 0.5f) * inv - 0.5f, 0.f,
                                 static_cast<float>(L.height - 1));
     const int y0 = static_cast<int>(fy);
     const int y1 = std::min(y0 + 1, L.height - 1);
     const float ay = fy - static_cast<float>(y0);
-    for (int x = 0; x < W; ++x) {
-      const float fx = std::clamp((static_cast<float>(x) + 0.5f) * inv - 0.5f, 0.f,
-                                  static_cast<float>(L.width - 1));
-      const int x0 = static_cast<int>(fx);
-      const int x1 = std::min(x0 + 1, L.width - 1);
-      const float ax = fx - static_cast<float>(x0);
-      const int xs4[4] = {x0, x1, x0, x1};
-      const int ys4[4] = {y0, y0, y1, y1};
-      const float w4[4] = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
-      // Interpolate among neighbours that have an estimate.
-      float wsum = 0, dsum = 0, csum = 0, vsum = 0;
-      for (int i = 0; i < 4; ++i) {
-        const float d = level_disparity(ys4[i], xs4[i]);
-        if (d < 0.f) continue;
-        wsum += w4[i];
-        dsum += w4[i] * d;
-        csum += w4[i] * level_confidence(ys4[i], xs4[i]);
-        if (variance) vsum += w4[i] * level_variance(ys4[i], xs4[i]);
+    const float *d0 = level_disparity[y0], *d1 = level_disparity[y1];
+    const float *c0 = level_confidence[y0], *c1 = level_confidence[y1];
+    for (int x = 0; x < L.width; ++x) {
+      const float w0 = d0[x] >= 0.f ? 1.f - ay : 0.f;
+      const float w1 = d1[x] >= 0.f ? ay : 0.f;
+      vw[x] = w0 + w1;
+      vd[x] = w0 * d0[x] + w1 * d1[x];
+      vc[x] = w0 * c0[x] + w1 * c1[x];
+      if (variance) {
+        vv[x] = (w0 > 0.f ? w0 * level_variance(y0, x) : 0.f) +
+                (w1 > 0.f ? w1 * level_variance(y1, x) : 0.f);
       }
+    }
+    float* dout = out.disparity.ptr<float>(y);
+    float* cout = out.confidence.ptr<float>(y);
+    const uchar* valid = full.left_valid[y];
+    for (int x = 0; x < W; ++x) {
+      const size_t i0 = static_cast<size_t>(up_x0[static_cast<size_t>(x)]);
+      const size_t i1 = static_cast<size_t>(up_x1[static_cast<size_t>(x)]);
+      const float ax = up_ax[static_cast<size_t>(x)];
+      const float wsum = (1.f - ax) * vw[i0] + ax * vw[i1];
+      const float dsum = (1.f - ax) * vd[i0] + ax * vd[i1];
+      const float csum = (1.f - ax) * vc[i0] + ax * vc[i1];
       const bool keep = valid[x] && wsum > 0.25f;
       dout[x] = keep ? scale * dsum / wsum : kNoDisparity;
       cout[x] = keep ? csum / wsum : 0.f;
-      if (variance) vout[x] = keep ? var_scale * vsum / wsum : kNaN;
+    }
+    if (!variance) continue;
+    float* vout = out.variance.ptr<float>(y);
+    for (int x = 0; x < W; ++x) {
+      const size_t i0 = static_cast<size_t>(up_x0[static_cast<size_t>(x)]);
+      const size_t i1 = static_cast<size_t>(up_x1[static_cast<size_t>(x)]);
+      const float ax = up_ax[static_cast<size_t>(x)];
+      const float wsum = (1.f - ax) * vw[i0] + ax * vw[i1];
+      const float vsum = (1.f - ax) * vv[i0] + ax * vv[i1];
+      vout[x] = dout[x] >= 0.f ? var_scale * vsum / wsum : kNaN;
     }
   }
 }
