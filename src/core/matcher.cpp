@@ -366,7 +366,8 @@ void SearchPass::patchSums(float u, ResidualSums& r) {
   }
   // Fast path: the span and its right neighbour column inside the image and valid.
   if (span.base >= 0 && span.base + p < L.width &&
-      rectSum(L.right_invalid, span.base, cur.y0, span.base + p + 1, cur.y0 + p) == 0) {
+      (L.right_all_valid ||
+       rectSum(L.right_invalid, span.base, cur.y0, span.base + p + 1, cur.y0 + p) == 0)) {
     kernels->sums_all_valid(L.right[cur.y0], rowStride(L.right), p, span, cur.view, r);
     r.g = cur.g_sum;
     r.g_sq = cur.g_sq_sum;
@@ -375,8 +376,9 @@ void SearchPass::patchSums(float u, ResidualSums& r) {
   // Near or past the image edge: sum over the columns inside it, if those are valid.
   const detail::ColumnRange cols = detail::columnsInside(L.width, p, span);
   const int taps = span.frac > 0.f ? 1 : 0;
-  if (cols.empty() || rectSum(L.right_invalid, span.base + cols.begin, cur.y0,
-                              span.base + cols.end + taps, cur.y0 + p) == 0) {
+  if (cols.empty() || L.right_all_valid ||
+      rectSum(L.right_invalid, span.base + cols.begin, cur.y0, span.base + cols.end + taps,
+              cur.y0 + p) == 0) {
     kernels->sums_clipped(L.right[cur.y0], rowStride(L.right), p, span, cols, cur.view, r);
   } else {
     detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, cur.view, cur.valid,

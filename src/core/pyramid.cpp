@@ -128,10 +128,11 @@ void gradientIntegrals(const cv::Mat1f& gx, cv::Mat1d& sum, cv::Mat1d& sq_sum) {
 
 /// Integral image of the invalid pixels; all zeros, without the running
 /// sums, when every pixel is valid (rectified views usually have no border).
-void invalidCountIntegral(const cv::Mat1b& valid, cv::Mat1i& sum) {
+/// Returns whether every pixel is valid.
+bool invalidCountIntegral(const cv::Mat1b& valid, cv::Mat1i& sum) {
   if (cv::countNonZero(valid) == valid.rows * valid.cols) {
     for (int y = 0; y < sum.rows; ++y) std::fill(sum[y], sum[y] + sum.cols, 0);
-    return;
+    return true;
   }
   const int w = valid.cols;
   std::fill(sum[0], sum[0] + w + 1, 0);
@@ -146,13 +147,14 @@ void invalidCountIntegral(const cv::Mat1b& valid, cv::Mat1i& sum) {
       out[x + 1] = above[x + 1] + row;
     }
   }
+  return false;
 }
 
 void buildGradientAndIntegrals(PyramidLevel& l) {
   horizontalGradient(l.left, l.left_valid, l.left_gx);
   gradientIntegrals(l.left_gx, l.gx_sum, l.gx_sq_sum);
   invalidCountIntegral(l.left_valid, l.left_invalid);
-  invalidCountIntegral(l.right_valid, l.right_invalid);
+  l.right_all_valid = invalidCountIntegral(l.right_valid, l.right_invalid);
 }
 
 void allocate(PyramidLevel& l, int w, int h) {

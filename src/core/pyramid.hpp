@@ -27,6 +27,7 @@ struct PyramidLevel {
   cv::Mat1d gx_sq_sum;      ///< sum of gx^2 (the 1-D Hessian)
   cv::Mat1i left_invalid;   ///< count of invalid left pixels
   cv::Mat1i right_invalid;  ///< count of invalid right pixels
+  bool right_all_valid = false;  ///< no invalid right pixel: right_invalid is all 0
 };
 
 /// Sum of an integral image over [x0, x1) x [y0, y1).
