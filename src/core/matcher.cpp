@@ -101,6 +101,7 @@ struct SearchPass {
   // the level rows blended vertically for the current output row.
   std::vector<int> up_x0, up_x1;
   std::vector<float> up_ax, up_weight, up_disparity, up_confidence, up_variance;
+  std::vector<float> up_row_weight, up_row_disparity, up_row_confidence;  ///< full width
   std::vector<PatchEstimate> patches;
 
   // Per-patch scratch, p*p or row-sized.
@@ -204,6 +205,9 @@ void SearchPass::allocate(cv::Size size, int levels) {
   cover_y.resize(static_cast<size_t>(largest.height));
   for (std::vector<float>* v : {&up_ax, &up_weight, &up_disparity, &up_confidence, &up_variance}) {
     v->resize(static_cast<size_t>(std::max(size.width, largest.width)));
+  }
+  for (std::vector<float>* v : {&up_row_weight, &up_row_disparity, &up_row_confidence}) {
+    v->resize(static_cast<size_t>(size.width));
   }
   up_x0.resize(static_cast<size_t>(size.width));
   up_x1.resize(static_cast<size_t>(size.width));
@@ -506,6 +510,86 @@ void accumulateRow(int p, const float* __restrict g, float posterior, float disp
   }
 }
 
+// Per-row loops of fusion and upsampling. Their rows are __restrict
+// parameters: without them GCC gives up vectorising for the many possible
+// aliases between the outputs and the inputs.
+
+/// Fused disparity where any patch survived; 0 elsewhere (the caller fills those).
+void fusedRow(int n, const float* __restrict num, const float* __restrict den,
+              float* __restrict out) {
+  for (int x = 0; x < n; ++x) {
+    const float d = num[x] / std::max(den[x], std::numeric_limits<float>::min());
+    const float value = den[x] > 0.f ? d : 0.f;
+    out[x] = value;
+  }
+}
+
+/// The finest level's output row: fused disparity and confidence where some
+/// patch survived and the confidence reaches the floor.
+void floorRow(int n, const float* __restrict fused, const float* __restrict den,
+              const float* __restrict conf_sum, const float* __restrict cover_x, float cover_y,
+              float confidence_floor, float* __restrict disparity, float* __restrict confidence) {
+  for (int x = 0; x < n; ++x) {
+    const float conf = conf_sum[x] / (cover_y * cover_x[x]), f = fused[x];
+    const bool keep = (den[x] > 0.f) & (conf >= confidence_floor);  // & : no branch
+    const float d = keep ? f : kNoDisparity, c = keep ? conf : 0.f;
+    disparity[x] = d;
+    confidence[x] = c;
+  }
+}
+
+/// Blends two level rows with weights (1 - a, a), counting only pixels with
+/// an estimate: the weight, weighted disparity and weighted confidence.
+void blendRows(int n, const float* __restrict d0, const float* __restrict d1,
+               const float* __restrict c0, const float* __restrict c1, float a,
+               float* __restrict weight, float* __restrict disparity,
+               float* __restrict confidence) {
+  for (int x = 0; x < n; ++x) {
+    const float w0 = d0[x] >= 0.f ? 1.f - a : 0.f;
+    const float w1 = d1[x] >= 0.f ? a : 0.f;
+    weight[x] = w0 + w1;
+    disparity[x] = w0 * d0[x] + w1 * d1[x];
+    confidence[x] = w0 * c0[x] + w1 * c1[x];
+  }
+}
+
+/// dst[x] = (1 - ax[x]) src[x0[x]] + ax[x] src[x1[x]]: one level row
+/// interpolated to the output columns.
+void interpolateColumns(int n, const int* x0, const int* x1, const float* ax,
+                        const float* __restrict src, float* __restrict dst) {
+  for (int x = 0; x < n; ++x) dst[x] = (1.f - ax[x]) * src[x0[x]] + ax[x] * src[x1[x]];
+}
+
+/// The same for exactly twice the level width (finest level 1, the usual
+/// case), where the taps repeat: output columns 2i+1 and 2i+2 lie a quarter
+/// and three quarters of the way from level column i to i+1, and the two
+/// outermost columns copy the outermost level columns. Same arithmetic, so
+/// the same values, but a loop that vectorises.
+void interpolateColumnsTwice(int level_width, const float* __restrict src, float* __restrict dst) {
+  dst[0] = src[0];
+  for (int i = 0; i + 1 < level_width; ++i) {
+    const float a = src[i], b = src[i + 1];
+    dst[2 * i + 1] = 0.75f * a + 0.25f * b;
+    dst[2 * i + 2] = 0.25f * a + 0.75f * b;
+  }
+  dst[2 * level_width - 1] = src[level_width - 1];
+}
+
+/// Final output row: weighted means where the input pixel is valid and the
+/// estimates around it carry more than a quarter of the weight.
+void upsampledRow(int n, const uchar* __restrict valid, const float* __restrict weight,
+                  const float* __restrict disparity, const float* __restrict confidence,
+                  float scale, float* __restrict d_out, float* __restrict c_out) {
+  for (int x = 0; x < n; ++x) {
+    const bool keep = (valid[x] != 0) & (weight[x] > 0.25f);  // & : no branch
+    const float w = std::max(weight[x], 0.25f);
+    const float d = scale * disparity[x] / w, c = confidence[x] / w;
+    const float d_kept = keep ? d : kNoDisparity, c_kept = keep ? c : 0.f;
+    d_out[x] = d_kept;
+    c_out[x] = c_kept;
+  }
+}
+
 /// Patches covering each pixel along one axis of a level.
 void coverAlongAxis(const std::vector<int>& origins, int p, std::vector<float>& cover, int extent) {
   std::fill(cover.begin(), cover.begin() + extent, 0.f);
@@ -568,19 +652,14 @@ void SearchPass::fuseLevel(int s, bool finest) {
     const float* cr = csum[y];
     const float* coarse_row = coarse[std::min(y / 2, coarse.rows - 1)];
     float* ir = init[y];
+    fusedRow(w, nr, dr, ir);
     for (int x = 0; x < w; ++x) {
-      ir[x] = dr[x] > 0.f ? nr[x] / dr[x] : 2.f * coarse_row[std::min(x / 2, coarse.cols - 1)];
+      if (!(dr[x] > 0.f)) ir[x] = 2.f * coarse_row[std::min(x / 2, coarse.cols - 1)];  // rare
     }
     if (!finest) continue;
     float* dout = level_disparity[y];
-    float* cout = level_confidence[y];
-    const float cover_row = cover_y[static_cast<size_t>(y)];
-    for (int x = 0; x < w; ++x) {
-      const float conf = cr[x] / (cover_row * cover_x[static_cast<size_t>(x)]);
-      const bool keep = dr[x] > 0.f && conf >= params.confidence_floor;
-      dout[x] = keep ? ir[x] : kNoDisparity;
-      cout[x] = keep ? conf : 0.f;
-    }
+    floorRow(w, ir, dr, cr, cover_x.data(), cover_y[static_cast<size_t>(y)],
+             params.confidence_floor, dout, level_confidence[y]);
     if (!variance) continue;
     float* vout = level_variance[y];
     for (int x = 0; x < w; ++x) {
@@ -607,6 +686,8 @@ void SearchPass::upsampleToFull(int s, MatchResult& out) {
   const float scale = static_cast<float>(1 << s);
   const float inv = 1.f / scale;
   const float var_scale = scale * scale;
+  const int level_width = L.width;
+  const bool twice = s == 1 && W == 2 * level_width;
   // Bilinear among the neighbours that have an estimate. The taps of a
   // column are the same on every row: computed once per frame.
   for (int x = 0; x < W; ++x) {
@@ -629,32 +710,26 @@ void SearchPass::upsampleToFull(int s, MatchResult& out) {
     const int y1 = std::min(y0 + 1, L.height - 1);
     const float ay = fy - static_cast<float>(y0);
     const float *d0 = level_disparity[y0], *d1 = level_disparity[y1];
-    const float *c0 = level_confidence[y0], *c1 = level_confidence[y1];
-    for (int x = 0; x < L.width; ++x) {
-      const float w0 = d0[x] >= 0.f ? 1.f - ay : 0.f;
-      const float w1 = d1[x] >= 0.f ? ay : 0.f;
-      vw[x] = w0 + w1;
-      vd[x] = w0 * d0[x] + w1 * d1[x];
-      vc[x] = w0 * c0[x] + w1 * c1[x];
-      if (variance) {
-        vv[x] = (w0 > 0.f ? w0 * level_variance(y0, x) : 0.f) +
-                (w1 > 0.f ? w1 * level_variance(y1, x) : 0.f);
+    blendRows(level_width, d0, d1, level_confidence[y0], level_confidence[y1], ay, vw, vd, vc);
+    if (variance) {
+      const float *v0 = level_variance[y0], *v1 = level_variance[y1];
+      for (int x = 0; x < level_width; ++x) {
+        // NaN where there is no estimate: only weighted where there is one.
+        vv[x] = (d0[x] >= 0.f ? (1.f - ay) * v0[x] : 0.f) + (d1[x] >= 0.f ? ay * v1[x] : 0.f);
+      }
+    }
+    float* hw = up_row_weight.data();
+    float* hd = up_row_disparity.data();
+    float* hc = up_row_confidence.data();
+    for (const auto& [level_row, out_row] : {std::pair<float*, float*>{vw, hw}, {vd, hd}, {vc, hc}}) {
+      if (twice) {
+        interpolateColumnsTwice(level_width, level_row, out_row);
+      } else {
+        interpolateColumns(W, up_x0.data(), up_x1.data(), up_ax.data(), level_row, out_row);
       }
     }
     float* dout = out.disparity.ptr<float>(y);
-    float* cout = out.confidence.ptr<float>(y);
-    const uchar* valid = full.left_valid[y];
-    for (int x = 0; x < W; ++x) {
-      const size_t i0 = static_cast<size_t>(up_x0[static_cast<size_t>(x)]);
-      const size_t i1 = static_cast<size_t>(up_x1[static_cast<size_t>(x)]);
-      const float ax = up_ax[static_cast<size_t>(x)];
-      const float wsum = (1.f - ax) * vw[i0] + ax * vw[i1];
-      const float dsum = (1.f - ax) * vd[i0] + ax * vd[i1];
-      const float csum = (1.f - ax) * vc[i0] + ax * vc[i1];
-      const bool keep = valid[x] && wsum > 0.25f;
-      dout[x] = keep ? scale * dsum / wsum : kNoDisparity;
-      cout[x] = keep ? csum / wsum : 0.f;
-    }
+    upsampledRow(W, full.left_valid[y], hw, hd, hc, scale, dout, out.confidence.ptr<float>(y));
     if (!variance) continue;
     float* vout = out.variance.ptr<float>(y);
     for (int x = 0; x < W; ++x) {
