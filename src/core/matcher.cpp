@@ -124,12 +124,20 @@ struct SearchPass {
     detail::PatchView view{};
     const uchar* valid = nullptr;  ///< left validity at (x0, y0), rows level->left_valid.step apart
     bool left_all_valid = false;
+    /// Every left pixel of the patch and every right pixel of the level
+    /// valid: an in-image match needs no validity lookup.
+    bool no_invalid_pixels = false;
+    const float* right_rows = nullptr;  ///< right image, column 0 of row y0
+    size_t right_stride = 0;
+    int width = 0;  ///< of the level
     float g_sum = 0.f, g_sq_sum = 0.f;
   } cur;
   std::vector<uchar> patch_loaded;
   /// Loads the left patch at (x0, y0); false when too few of its pixels are valid.
   bool loadPatch(const PyramidLevel& L, int x0, int y0);
   void patchSums(float u, ResidualSums& r);
+  /// patchSums away from the common case: near the image edge or near invalid pixels.
+  void patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r);
   /// Mean squared residual at disparity u (mean-normalised if enabled); +inf without pixels.
   float patchCost(float u, float* valid_count = nullptr);
   float refinePatch(float u_start);
@@ -352,27 +360,47 @@ bool SearchPass::loadPatch(const PyramidLevel& L, int x0, int y0) {
   if (static_cast<float>(pp - left_invalid) < params.min_valid_share * static_cast<float>(pp)) {
     return false;  // mostly outside the rectified view
   }
-  cur = {&L, x0, y0, {L.left[y0] + x0, L.left_gx[y0] + x0, rowStride(L.left)},
-         L.left_valid[y0] + x0, left_invalid == 0,
+  cur = {&L,
+         x0,
+         y0,
+         {L.left[y0] + x0, L.left_gx[y0] + x0, rowStride(L.left)},
+         L.left_valid[y0] + x0,
+         left_invalid == 0,
+         left_invalid == 0 && L.right_all_valid,
+         L.right[y0],
+         rowStride(L.right),
+         L.width,
          static_cast<float>(rectSum(L.gx_sum, x0, y0, x0 + p, y0 + p)),
          static_cast<float>(rectSum(L.gx_sq_sum, x0, y0, x0 + p, y0 + p))};
   return true;
 }
 
 void SearchPass::patchSums(float u, ResidualSums& r) {
-  const PyramidLevel& L = *cur.level;
   const int p = params.patch_size;
   const SampleSpan span = detail::sampleSpan(cur.x0, u);
+  // Fast path: the span and its right neighbour column inside the image, and
+  // no invalid pixel anywhere near (the usual case, kept short).
+  if (cur.no_invalid_pixels && span.base >= 0 && span.base + p < cur.width) {
+    kernels->sums_all_valid(cur.right_rows, cur.right_stride, p, span, cur.view, r);
+    r.g = cur.g_sum;
+    r.g_sq = cur.g_sq_sum;
+    return;
+  }
+  patchSumsNearInvalidOrEdge(span, r);
+}
+
+void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
+  const PyramidLevel& L = *cur.level;
+  const int p = params.patch_size;
   if (!cur.left_all_valid) {
     detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, cur.view, cur.valid,
                        L.left_valid.step1(), r);
     return;
   }
-  // Fast path: the span and its right neighbour column inside the image and valid.
+  // Inside the image, with invalid right pixels elsewhere on the level.
   if (span.base >= 0 && span.base + p < L.width &&
-      (L.right_all_valid ||
-       rectSum(L.right_invalid, span.base, cur.y0, span.base + p + 1, cur.y0 + p) == 0)) {
-    kernels->sums_all_valid(L.right[cur.y0], rowStride(L.right), p, span, cur.view, r);
+      rectSum(L.right_invalid, span.base, cur.y0, span.base + p + 1, cur.y0 + p) == 0) {
+    kernels->sums_all_valid(cur.right_rows, cur.right_stride, p, span, cur.view, r);
     r.g = cur.g_sum;
     r.g_sq = cur.g_sq_sum;
     return;
@@ -383,7 +411,7 @@ void SearchPass::patchSums(float u, ResidualSums& r) {
   if (cols.empty() || L.right_all_valid ||
       rectSum(L.right_invalid, span.base + cols.begin, cur.y0, span.base + cols.end + taps,
               cur.y0 + p) == 0) {
-    kernels->sums_clipped(L.right[cur.y0], rowStride(L.right), p, span, cols, cur.view, r);
+    kernels->sums_clipped(cur.right_rows, cur.right_stride, p, span, cols, cur.view, r);
   } else {
     detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, cur.view, cur.valid,
                        L.left_valid.step1(), r);
@@ -495,20 +523,6 @@ PatchEstimate SearchPass::patchPosterior(float u) {
 }
 
 namespace {
-
-/// Adds one row of a patch's weighted disparity, weight and evidence. The
-/// rows come as __restrict parameters and the patch's values by value, so the
-/// compiler knows no store aliases another input and vectorises the loop.
-void accumulateRow(int p, const float* __restrict g, float posterior, float disparity,
-                   float evidence, float* __restrict num, float* __restrict den,
-                   float* __restrict conf) {
-  for (int x = 0; x < p; ++x) {
-    const float w = posterior * g[x];
-    num[x] += w * disparity;
-    den[x] += w;
-    conf[x] += evidence;
-  }
-}
 
 // Per-row loops of fusion and upsampling. Their rows are __restrict
 // parameters: without them GCC gives up vectorising for the many possible
@@ -622,10 +636,8 @@ void SearchPass::fuseLevel(int s, bool finest) {
     for (int x0 : xs) {
       const PatchEstimate& e = patches[k++];
       if (e.posterior <= 0.f) continue;
-      for (int y = 0; y < p; ++y) {
-        accumulateRow(p, spatial.data() + y * p, e.posterior, e.disparity, e.evidence,
-                      num[y0 + y] + x0, den[y0 + y] + x0, csum[y0 + y] + x0);
-      }
+      kernels->accumulate_patch(p, spatial.data(), e.posterior, e.disparity, e.evidence,
+                                num[y0] + x0, den[y0] + x0, csum[y0] + x0, rowStride(num));
       if (variance) {
         for (int y = 0; y < p; ++y) {
           const float* g = spatial.data() + y * p;

@@ -183,6 +183,25 @@ inline void sumsMasked(const cv::Mat1f& right, const cv::Mat1b& right_valid, int
   out = {n, sd, sdd, sgd, sg, sgg};
 }
 
+/// Fusion of one patch: adds posterior * spatial weight * disparity, the
+/// weight and the evidence to the p x p pixels at `num`, `den`, `conf` (rows
+/// `stride` floats apart). `spatial` is the p x p Gaussian, row-major.
+inline void accumulatePatch(int p, const float* spatial, float posterior, float disparity,
+                            float evidence, float* num, float* den, float* conf, size_t stride) {
+  for (int y = 0; y < p; ++y) {
+    const float* g = spatial + y * p;
+    float* nr = num + y * stride;
+    float* dr = den + y * stride;
+    float* cr = conf + y * stride;
+    for (int x = 0; x < p; ++x) {
+      const float w = posterior * g[x];
+      nr[x] += w * disparity;
+      dr[x] += w;
+      cr[x] += evidence;
+    }
+  }
+}
+
 /// The unmasked inner loops, as one swappable set: a scalar reference for
 /// any patch size, and fixed-size versions (lane accumulators the compiler
 /// vectorises) built once with the baseline instruction set and once for AVX2.
@@ -201,6 +220,8 @@ struct KernelSet {
   void (*window_costs)(const float* rows, size_t stride, int p, int base_lo, float frac, int samples,
                        int step, const PatchView& patch, bool mean_normalization, float* row_buf,
                        float* sum, float* sum_sq, float* costs);
+  void (*accumulate_patch)(int p, const float* spatial, float posterior, float disparity,
+                           float evidence, float* num, float* den, float* conf, size_t stride);
 };
 
 /// Columns every right-image row of the pyramid has readable (and zero) on

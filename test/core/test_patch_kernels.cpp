@@ -145,6 +145,41 @@ TEST(PatchKernels, EveryIsaAgreesWithTheReference) {
   EXPECT_STREQ(kernelsFor(10, KernelIsa::Baseline).name, "scalar");
 }
 
+// Every kernel set's fusion of a patch adds what the scalar loop adds (up to
+// the rounding of a fused multiply-add), on rows of a wider image.
+TEST(PatchKernels, EveryIsaAccumulatesAPatchLikeTheScalarLoop) {
+  cv::RNG rng(13);
+  int sets_checked = 0;
+  for (KernelIsa isa : {KernelIsa::Baseline, KernelIsa::Avx2}) {
+    if (!kernelIsaAvailable(isa)) continue;
+    for (int p : {8, 16, 32, 10}) {
+      const KernelSet& k = kernelsFor(p, isa);
+      ++sets_checked;
+      std::vector<float> spatial(static_cast<size_t>(p * p));
+      for (float& g : spatial) g = rng.uniform(0.f, 1.f);
+      cv::Mat1f sums[2][3];
+      for (cv::Mat1f& m : sums[0]) {
+        m.create(p + 3, p + 7);
+        rng.fill(m, cv::RNG::UNIFORM, 0.f, 10.f);
+      }
+      for (int i = 0; i < 3; ++i) sums[1][i] = sums[0][i].clone();
+      for (int patch = 0; patch < 3; ++patch) {
+        const float post = rng.uniform(0.f, 1.f), d = rng.uniform(0.f, 40.f), ev = rng.uniform(0.f, 1.f);
+        const int x0 = patch + 1, y0 = patch;
+        k.accumulate_patch(p, spatial.data(), post, d, ev, &sums[0][0](y0, x0), &sums[0][1](y0, x0),
+                           &sums[0][2](y0, x0), sums[0][0].step1());
+        accumulatePatch(p, spatial.data(), post, d, ev, &sums[1][0](y0, x0), &sums[1][1](y0, x0),
+                        &sums[1][2](y0, x0), sums[1][0].step1());
+      }
+      for (int i = 0; i < 3; ++i) {
+        EXPECT_LE(cv::norm(sums[0][i], sums[1][i], cv::NORM_INF), 1e-6 * cv::norm(sums[1][i], cv::NORM_INF))
+            << k.name << " p=" << p;
+      }
+    }
+  }
+  EXPECT_GE(sets_checked, 4);
+}
+
 // Every kernel set's clipped sums (the fixed-size ones read whole rows from
 // the padding and mask them) against the per-pixel masked path, at matches
 // reaching past either image edge.
