@@ -247,6 +247,8 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
     m.right_pass.params = m.left_pass.params;
     m.right_pass.params.compute_variance = false;
     m.right_pass.params.confidence_floor = 0.f;  // any fused estimate may confirm
+    // The check only confirms or refutes: a sparser grid does.
+    m.right_pass.params.overlap = P.lr_check_overlap;
     // Mirroring turns "right as reference" into the same left-reference search.
     m.right_pass.pyramid.buildMirrored(m.left_pass.pyramid, levels, m.right_pass.params.finest_level);
     m.right_pass.run(levels);
@@ -287,7 +289,9 @@ void SearchPass::run(int levels) {
 void SearchPass::matchLevel(int s, bool finest) {
   const PyramidLevel& L = pyramid.level(s);
   const int p = params.patch_size;
-  const int stride = std::max(1, static_cast<int>(std::lround(p * (1.0 - params.overlap))));
+  // Coarser levels only initialise the next one: they get by with fewer patches.
+  const double overlap = finest ? params.overlap : params.coarse_overlap;
+  const int stride = std::max(1, static_cast<int>(std::lround(p * (1.0 - overlap))));
   patchAxis(L.width, p, stride, xs);
   patchAxis(L.height, p, stride, ys);
   const int nx = static_cast<int>(xs.size()), ny = static_cast<int>(ys.size());
