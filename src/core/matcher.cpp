@@ -133,6 +133,7 @@ struct SearchPass {
     float g_sum = 0.f, g_sq_sum = 0.f;
   } cur;
   std::vector<uchar> patch_loaded;
+  std::vector<CurrentPatch> loaded_patches;  ///< as the forward pass loaded them, for the backward one
   /// Loads the left patch at (x0, y0); false when too few of its pixels are valid.
   bool loadPatch(const PyramidLevel& L, int x0, int y0);
   void patchSums(float u, ResidualSums& r);
@@ -219,7 +220,7 @@ void SearchPass::allocate(cv::Size size, int levels) {
   }
   up_x0.resize(static_cast<size_t>(size.width));
   up_x1.resize(static_cast<size_t>(size.width));
-  // xs, ys, patches and patch_loaded grow to the finest level's size on the
+  // xs, ys, patches, patch_loaded and loaded_patches grow to the finest level's size on the
   // first frame and keep that capacity afterwards.
   const int max_window_span = static_cast<int>(
       std::ceil(2.f * static_cast<float>(params.window_half_width) * params.window_step));
@@ -267,7 +268,7 @@ void Matcher::Impl::leftRightCheck(float tolerance) {
     const float* dr = mirrored[y];
     for (int x = 0; x < w; ++x) {
       if (dl[x] < 0.f) continue;
-      const int xr = static_cast<int>(std::lround(static_cast<float>(x) - dl[x]));
+      const int xr = static_cast<int>(std::floor(static_cast<float>(x) - dl[x] + 0.5f));
       const float back = xr >= 0 ? dr[w - 1 - xr] : kNoDisparity;
       if (back < 0.f || std::fabs(back - dl[x]) > tolerance) {
         dl[x] = kNoDisparity;
@@ -297,6 +298,7 @@ void SearchPass::matchLevel(int s, bool finest) {
   const int nx = static_cast<int>(xs.size()), ny = static_cast<int>(ys.size());
   patches.resize(static_cast<size_t>(nx) * static_cast<size_t>(ny));
   patch_loaded.resize(patches.size());
+  loaded_patches.resize(patches.size());
 
   const cv::Mat1f& coarse = init_disparity[s + 1];
   const float half = 0.5f * static_cast<float>(p - 1);
@@ -309,12 +311,14 @@ void SearchPass::matchLevel(int s, bool finest) {
       const int x0 = xs[static_cast<size_t>(ix)], y0 = ys[static_cast<size_t>(iy)];
       const float cx = (static_cast<float>(x0) + half + 0.5f) * 0.5f - 0.5f;
       const float cy = (static_cast<float>(y0) + half + 0.5f) * 0.5f - 0.5f;
-      const int ccx = std::clamp(static_cast<int>(std::lround(cx)), 0, coarse.cols - 1);
-      const int ccy = std::clamp(static_cast<int>(std::lround(cy)), 0, coarse.rows - 1);
+      // cx, cy > 0: adding 0.5 and truncating rounds them (lround is a libm call).
+      const int ccx = std::min(static_cast<int>(cx + 0.5f), coarse.cols - 1);
+      const int ccy = std::min(static_cast<int>(cy + 0.5f), coarse.rows - 1);
       float u = 2.f * coarse(ccy, ccx);
       patches[k] = PatchEstimate{u, 0.f, 0.f};
       patch_loaded[k] = loadPatch(L, x0, y0);
       if (!patch_loaded[k]) continue;
+      loaded_patches[k] = cur;
       if (params.propagation) {
         float best = patchCost(u);
         if (ix > 0 && patch_loaded[k - 1]) adoptIfBetter(patches[k - 1].disparity, u, best);
@@ -331,7 +335,7 @@ void SearchPass::matchLevel(int s, bool finest) {
     for (int ix = nx - 1; ix >= 0; --ix) {
       const size_t k = static_cast<size_t>(iy * nx + ix);
       if (!patch_loaded[k]) continue;
-      loadPatch(L, xs[static_cast<size_t>(ix)], ys[static_cast<size_t>(iy)]);
+      cur = loaded_patches[k];
       float u = patches[k].disparity;
       if (params.propagation) {
         float best = patchCost(u);
@@ -501,10 +505,12 @@ PatchEstimate SearchPass::patchPosterior(float u) {
   float sum = 0.f;
   for (int j = 0; j < 2 * n + 1; ++j) {
     const float e = costs[static_cast<size_t>(j)];
-    likelihood[static_cast<size_t>(j)] = std::isfinite(e) ? std::exp(-(e - e0) * inv) : 0.f;
+    // exp(0) = 1 at the optimum, without the call.
+    likelihood[static_cast<size_t>(j)] =
+        j == n ? 1.f : std::isfinite(e) ? std::exp(-(e - e0) * inv) : 0.f;
     sum += likelihood[static_cast<size_t>(j)];
   }
-  est.posterior = 1.f / sum;  // likelihood at the optimum is exp(0) = 1
+  est.posterior = 1.f / sum;
   const float chance = 1.f / static_cast<float>(2 * n + 1);
   est.evidence = std::max(0.f, (est.posterior - chance) / (1.f - chance));
 
