@@ -320,7 +320,7 @@ void SearchPass::matchLevel(int s, bool finest) {
       if (!patch_loaded[k]) continue;
       loaded_patches[k] = cur;
       if (params.propagation) {
-        float best = patchCost(u);
+        float best = kNaN;  // the cost at u, computed when first needed
         if (ix > 0 && patch_loaded[k - 1]) adoptIfBetter(patches[k - 1].disparity, u, best);
         if (iy > 0 && patch_loaded[k - static_cast<size_t>(nx)]) {
           adoptIfBetter(patches[k - static_cast<size_t>(nx)].disparity, u, best);
@@ -338,7 +338,7 @@ void SearchPass::matchLevel(int s, bool finest) {
       cur = loaded_patches[k];
       float u = patches[k].disparity;
       if (params.propagation) {
-        float best = patchCost(u);
+        float best = kNaN;
         bool moved = false;
         if (ix + 1 < nx && patch_loaded[k + 1]) moved |= adoptIfBetter(patches[k + 1].disparity, u, best);
         if (iy + 1 < ny && patch_loaded[k + static_cast<size_t>(nx)]) {
@@ -353,7 +353,12 @@ void SearchPass::matchLevel(int s, bool finest) {
 }
 
 bool SearchPass::adoptIfBetter(float candidate, float& u, float& best_cost) {
-  if (std::fabs(candidate - u) < 1e-3f) return false;
+  // A neighbour's disparity this close to the patch's own is not worth a
+  // cost: the refinement would end where it ends from u (the scores on the
+  // colon and generated sequences do not change).
+  constexpr float kMinCandidateDistance = 0.1f;
+  if (std::fabs(candidate - u) < kMinCandidateDistance) return false;
+  if (std::isnan(best_cost)) best_cost = patchCost(u);  // only once some candidate is tried
   const float c = patchCost(candidate);
   if (!(c < best_cost)) return false;
   u = candidate;
