@@ -456,7 +456,7 @@ float SearchPass::refinePatch(float u_start) {
     if (H <= 1e-6f) break;  // no texture: nothing to align on
     const float step = b / H;
     u = std::clamp(u + step, 0.f, max_u);
-    if (std::fabs(step) < 1e-3f) break;
+    if (std::fabs(step) < 0.01f) break;  // converged: far below what a match resolves
   }
   // Outlier guard: wandered more than a patch from its start.
   if (std::fabs(u - u_start) > static_cast<float>(params.patch_size)) u = u_start;
