@@ -544,6 +544,7 @@ namespace {
 // aliases between the outputs and the inputs.
 
 /// Fused disparity where any patch survived; 0 elsewhere (the caller fills those).
+BDIS_ROW_LOOP
 void fusedRow(int n, const float* __restrict num, const float* __restrict den,
               float* __restrict out) {
   for (int x = 0; x < n; ++x) {
@@ -555,6 +556,7 @@ void fusedRow(int n, const float* __restrict num, const float* __restrict den,
 
 /// The finest level's output row: fused disparity and confidence where some
 /// patch survived and the confidence reaches the floor.
+BDIS_ROW_LOOP
 void floorRow(int n, const float* __restrict fused, const float* __restrict den,
               const float* __restrict conf_sum, const float* __restrict cover_x, float cover_y,
               float confidence_floor, float* __restrict disparity, float* __restrict confidence) {
@@ -569,6 +571,7 @@ void floorRow(int n, const float* __restrict fused, const float* __restrict den,
 
 /// Blends two level rows with weights (1 - a, a), counting only pixels with
 /// an estimate: the weight, weighted disparity and weighted confidence.
+BDIS_ROW_LOOP
 void blendRows(int n, const float* __restrict d0, const float* __restrict d1,
                const float* __restrict c0, const float* __restrict c1, float a,
                float* __restrict weight, float* __restrict disparity,
@@ -594,6 +597,7 @@ void interpolateColumns(int n, const int* x0, const int* x1, const float* ax,
 /// and three quarters of the way from level column i to i+1, and the two
 /// outermost columns copy the outermost level columns. Same arithmetic, so
 /// the same values, but a loop that vectorises.
+BDIS_ROW_LOOP
 void interpolateColumnsTwice(int level_width, const float* __restrict src, float* __restrict dst) {
   dst[0] = src[0];
   for (int i = 0; i + 1 < level_width; ++i) {
@@ -606,6 +610,7 @@ void interpolateColumnsTwice(int level_width, const float* __restrict src, float
 
 /// Final output row: weighted means where the input pixel is valid and the
 /// estimates around it carry more than a quarter of the weight.
+BDIS_ROW_LOOP
 void upsampledRow(int n, const uchar* __restrict valid, const float* __restrict weight,
                   const float* __restrict disparity, const float* __restrict confidence,
                   float scale, float* __restrict d_out, float* __restrict c_out) {

@@ -10,6 +10,15 @@
 
 #include <opencv2/core.hpp>
 
+/// Marks a per-pixel row loop to be compiled twice, for the baseline and for
+/// AVX2 (eight floats a vector instead of four), the loader picking the one
+/// the CPU runs. AVX2 without FMA: the same operations, so the same values.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define BDIS_ROW_LOOP __attribute__((target_clones("avx2", "default")))
+#else
+#define BDIS_ROW_LOOP
+#endif
+
 namespace bdis {
 namespace detail {
 

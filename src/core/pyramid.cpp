@@ -11,6 +11,7 @@ namespace {
 // rectified view when every channel is 0; judged on the input, not on the
 // grey value, so a very dark but real pixel stays valid. Colour goes through
 // planes (`planes`, 3 sized by the caller) so that both loops vectorise.
+BDIS_ROW_LOOP
 void toGrey(const cv::Mat& src, cv::Mat* planes, cv::Mat1f& grey, cv::Mat1b& valid) {
   const int w = src.cols;  // not re-read in loops whose byte stores might alias it
   if (src.channels() == 1) {
@@ -43,6 +44,7 @@ void toGrey(const cv::Mat& src, cv::Mat* planes, cv::Mat1f& grey, cv::Mat1b& val
 
 // 2x2 box average; a coarse pixel is valid only when all four fine ones are,
 // so black borders never bleed into darker-than-real tissue values.
+BDIS_ROW_LOOP
 void downsample(const cv::Mat1f& fine, const cv::Mat1b& fine_valid, cv::Mat1f& coarse,
                 cv::Mat1b& coarse_valid) {
   const int w = coarse.cols;
@@ -63,6 +65,7 @@ void downsample(const cv::Mat1f& fine, const cv::Mat1b& fine_valid, cv::Mat1f& c
 
 // Central difference where both neighbours are valid, one-sided where only
 // one is, 0 where neither is: invalid pixels never enter a gradient.
+BDIS_ROW_LOOP
 void horizontalGradient(const cv::Mat1f& img, const cv::Mat1b& valid, cv::Mat1f& gx) {
   const int w = img.cols;
   for (int y = 0; y < img.rows; ++y) {
