@@ -99,7 +99,7 @@ void horizontalGradient(const cv::Mat1f& img, const cv::Mat1b& valid, cv::Mat1f&
 
 /// dst = src flipped left-right (dst already sized).
 template <typename T>
-void mirror(const cv::Mat_<T>& src, cv::Mat_<T>& dst) {
+BDIS_ROW_LOOP void mirror(const cv::Mat_<T>& src, cv::Mat_<T>& dst) {
   const int w = src.cols;
   for (int y = 0; y < src.rows; ++y) {
     const T* s = src[y];
@@ -130,13 +130,18 @@ void gradientIntegrals(const cv::Mat1f& gx, cv::Mat1d& sum, cv::Mat1d& sq_sum) {
 }
 
 /// Integral image of the invalid pixels; all zeros, without the running
-/// sums, when every pixel is valid (rectified views usually have no border).
+/// sums, when every pixel is valid (rectified views usually have no border;
+/// `all_zero` remembers that, so a stream of such frames writes it once).
 /// Returns whether every pixel is valid.
-bool invalidCountIntegral(const cv::Mat1b& valid, cv::Mat1i& sum) {
+bool invalidCountIntegral(const cv::Mat1b& valid, cv::Mat1i& sum, bool& all_zero) {
   if (cv::countNonZero(valid) == valid.rows * valid.cols) {
-    for (int y = 0; y < sum.rows; ++y) std::fill(sum[y], sum[y] + sum.cols, 0);
+    if (!all_zero) {
+      for (int y = 0; y < sum.rows; ++y) std::fill(sum[y], sum[y] + sum.cols, 0);
+      all_zero = true;
+    }
     return true;
   }
+  all_zero = false;
   const int w = valid.cols;
   std::fill(sum[0], sum[0] + w + 1, 0);
   for (int y = 0; y < valid.rows; ++y) {
@@ -156,8 +161,8 @@ bool invalidCountIntegral(const cv::Mat1b& valid, cv::Mat1i& sum) {
 void buildGradientAndIntegrals(PyramidLevel& l) {
   horizontalGradient(l.left, l.left_valid, l.left_gx);
   gradientIntegrals(l.left_gx, l.gx_sum, l.gx_sq_sum);
-  invalidCountIntegral(l.left_valid, l.left_invalid);
-  l.right_all_valid = invalidCountIntegral(l.right_valid, l.right_invalid);
+  invalidCountIntegral(l.left_valid, l.left_invalid, l.left_invalid_all_zero);
+  l.right_all_valid = invalidCountIntegral(l.right_valid, l.right_invalid, l.right_invalid_all_zero);
 }
 
 void allocate(PyramidLevel& l, int w, int h) {
@@ -174,6 +179,9 @@ void allocate(PyramidLevel& l, int w, int h) {
   l.right_valid.create(h, w);
   l.gx_sum.create(h + 1, w + 1);
   l.gx_sq_sum.create(h + 1, w + 1);
+  if (l.left_invalid.rows != h + 1 || l.left_invalid.cols != w + 1) {
+    l.left_invalid_all_zero = l.right_invalid_all_zero = false;  // new buffers
+  }
   l.left_invalid.create(h + 1, w + 1);
   l.right_invalid.create(h + 1, w + 1);
 }

@@ -28,6 +28,7 @@ struct PyramidLevel {
   cv::Mat1i left_invalid;   ///< count of invalid left pixels
   cv::Mat1i right_invalid;  ///< count of invalid right pixels
   bool right_all_valid = false;  ///< no invalid right pixel: right_invalid is all 0
+  bool left_invalid_all_zero = false, right_invalid_all_zero = false;  ///< integrals known to be 0
 };
 
 /// Sum of an integral image over [x0, x1) x [y0, y1).
