@@ -263,22 +263,17 @@ void Matcher::Impl::leftRightCheck(float tolerance) {
   const cv::Mat1f& mirrored = right_pass.level_disparity;
   const int w = left_pass.pyramid.level(left_pass.params.finest_level).width;
   const int h = left_pass.pyramid.level(left_pass.params.finest_level).height;
-  // Branch-free: whether a pixel passes is as good as random to the branch
-  // predictor.
   for (int y = 0; y < h; ++y) {
     float* dl = d[y];
-    float* conf = left_pass.level_confidence[y];
     const float* dr = mirrored[y];
     for (int x = 0; x < w; ++x) {
-      const float disparity = dl[x];
-      // Matching right column, rounded. A pixel without an estimate (-1)
-      // stays without one whatever it reads.
-      const int xr = static_cast<int>(std::floor(static_cast<float>(x) - disparity + 0.5f));
-      const float back = dr[std::clamp(w - 1 - xr, 0, w - 1)];
-      const bool confirmed = (xr >= 0) & (back >= 0.f) & (std::fabs(back - disparity) <= tolerance);
-      const float kept_d = confirmed ? disparity : kNoDisparity, kept_c = confirmed ? conf[x] : 0.f;
-      dl[x] = kept_d;
-      conf[x] = kept_c;
+      if (dl[x] < 0.f) continue;
+      const int xr = static_cast<int>(std::floor(static_cast<float>(x) - dl[x] + 0.5f));
+      const float back = xr >= 0 ? dr[w - 1 - xr] : kNoDisparity;
+      if (back < 0.f || std::fabs(back - dl[x]) > tolerance) {
+        dl[x] = kNoDisparity;
+        left_pass.level_confidence(y, x) = 0.f;
+      }
     }
   }
 }
