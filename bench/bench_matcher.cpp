@@ -1,18 +1,51 @@
 // Per-frame compute time of the matcher (each preset) against OpenCV's DIS
 // fast preset on the same frames in the same process, single-threaded.
-// Frames: the synthetic sequences of the shared data folder ($BDIS_DATA_DIR or
-// ../shared/data); without them, a procedurally textured 640x480 pair.
-// Image-size scaling (BM_Scaling*): generated scenes (bdis::synth, the demo
-// sample's configuration) at 320x240, 640x480, 1280x720 and 1920x1080,
-// rendered once at start-up (about 15 s).
-// Pin to one core for stable numbers: taskset -c 1 bdis_bench
+//
+// Two modes:
+//   bdis_bench [Google Benchmark flags]
+//       Google Benchmark loops. Frames: the synthetic sequences of the shared
+//       data folder ($BDIS_DATA_DIR or ../shared/data); without them, a
+//       procedurally textured 640x480 pair. Image-size scaling (BM_Scaling*):
+//       generated scenes (bdis::synth, the demo sample's configuration) at
+//       320x240, 640x480, 1280x720 and 1920x1080, rendered once (about 15 s).
+//   bdis_bench --table [--rounds N] [--no-scaling] [--set NAME=VALUE ...]
+//       One markdown table (what scripts/bench.sh prints): per synthetic
+//       sequence, the median over all frames (each timed N times, methods
+//       interleaved frame by frame) of the thread CPU time of one compute, for
+//       bdis fast / balanced / accurate and DIS fast, and the ratio to DIS
+//       fast; then the same for balanced and DIS fast on generated scenes of
+//       each size. Thread CPU time, not wall time: on a shared machine it does
+//       not count the time other processes hold the core. --set changes the
+//       balanced rows (to time a setting before making it the default).
+//   bdis_bench --one-frame bdis_fast|bdis_balanced|bdis_accurate|dis_fast
+//       Computes the first pair of the first sequence twice and brackets the
+//       second compute with CALLGRIND_START/STOP_INSTRUMENTATION, for
+//       `valgrind --tool=callgrind --instr-atstart=no` (instructions per frame).
+//       --set changes bdis_balanced here too.
+// Pin to one core for stable numbers: taskset -c 1 bdis_bench ...
 #include <benchmark/benchmark.h>
 
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <functional>
 #include <map>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#if __has_include(<valgrind/callgrind.h>)
+#include <valgrind/callgrind.h>
+#else
+#define CALLGRIND_START_INSTRUMENTATION
+#define CALLGRIND_STOP_INSTRUMENTATION
+#endif
 
 #include "bdis_stereo/evaluation.hpp"
 #include "bdis_stereo/matcher.hpp"
@@ -22,71 +55,111 @@ namespace {
 
 using Pairs = std::vector<std::pair<cv::Mat, cv::Mat>>;  // BGR left, right
 
-struct Frames {
-  Pairs pairs;
-};
+const char* const kSequences[] = {"synthetic_colon_diffuse", "synthetic_colon_specular"};
 
-const Frames& frames() {
-  static const Frames f = [] {
-    Frames out;
+Pairs loadSequence(const std::string& dir) {
+  Pairs out;
+  const bdis::StereoSequence seq = bdis::StereoSequence::open(dir);
+  for (size_t i = 0; i < seq.names.size(); ++i) out.emplace_back(seq.left(i), seq.right(i));
+  return out;
+}
+
+/// Every frame of the shared synthetic sequences, or one textured pair without them.
+const Pairs& frames() {
+  static const Pairs f = [] {
+    Pairs out;
     const std::string data = bdis::findDataDir();
     if (!data.empty()) {
-      for (const char* name : {"synthetic_colon_diffuse", "synthetic_colon_specular"}) {
-        const bdis::StereoSequence seq = bdis::StereoSequence::open(data + "/" + name);
-        for (size_t i = 0; i < seq.names.size(); ++i) out.pairs.emplace_back(seq.left(i), seq.right(i));
+      for (const char* name : kSequences) {
+        const Pairs seq = loadSequence(data + "/" + name);
+        out.insert(out.end(), seq.begin(), seq.end());
       }
     } else {
       cv::Mat noise(480, 700, CV_8UC3);
       cv::randu(noise, 20, 235);
       cv::GaussianBlur(noise, noise, cv::Size(0, 0), 2.0);
-      out.pairs.emplace_back(noise(cv::Rect(30, 0, 640, 480)).clone(),
-                             noise(cv::Rect(0, 0, 640, 480)).clone());
+      out.emplace_back(noise(cv::Rect(30, 0, 640, 480)).clone(),
+                       noise(cv::Rect(0, 0, 640, 480)).clone());
     }
     return out;
   }();
   return f;
 }
 
-/// Times the matcher over `pairs` in turn, after one untimed frame that sizes its buffers.
-void timeBdis(benchmark::State& state, const std::string& preset, const Pairs& pairs) {
-  cv::setNumThreads(1);
-  bdis::Matcher matcher(bdis::MatcherParams::preset(preset));
-  bdis::MatchResult result;
-  matcher.compute(pairs[0].first, pairs[0].second, result);
-  size_t i = 0;
-  for (auto _ : state) {
-    const auto& p = pairs[i++ % pairs.size()];
-    matcher.compute(p.first, p.second, result);
-    benchmark::DoNotOptimize(result.disparity.data);
+/// Two frames (0 and 15) of the sample scene at width x height, focal length
+/// scaled with the width (same field of view, so disparities scale too).
+const Pairs& scaledFrames(int width, int height) {
+  static std::map<std::pair<int, int>, Pairs> cache;
+  auto& pairs = cache[{width, height}];
+  if (pairs.empty()) {
+    bdis::synth::SceneConfig cfg;  // the demo sample: tissue, specular, instrument
+    cfg.width = width;
+    cfg.height = height;
+    const bdis::synth::SyntheticRenderer renderer(cfg);
+    for (int i : {0, 15}) {
+      const bdis::synth::SyntheticFrame f = renderer.render(i);
+      pairs.emplace_back(f.left, f.right);
+    }
   }
+  return pairs;
 }
 
-/// The same for OpenCV's DIS fast preset on the grey pairs (converted untimed).
-void timeOpenCvDisFast(benchmark::State& state, const Pairs& pairs) {
-  cv::setNumThreads(1);
+/// One method on BGR pairs, its buffers kept between frames as in a video loop.
+struct Method {
+  std::string name;
+  std::function<void(const cv::Mat& left, const cv::Mat& right)> compute;
+};
+
+Method bdisMethod(const std::string& name, const bdis::MatcherParams& params) {
+  auto matcher = std::make_shared<bdis::Matcher>(params);
+  auto result = std::make_shared<bdis::MatchResult>();
+  return {name, [matcher, result](const cv::Mat& l, const cv::Mat& r) {
+            matcher->compute(l, r, *result);
+            benchmark::DoNotOptimize(result->disparity.data);
+          }};
+}
+
+/// OpenCV's DIS fast preset. Its input is grey: the conversion is not timed
+/// (the caller passes grey images), as DIS users would convert anyway.
+Method disFastMethod() {
   auto dis = cv::DISOpticalFlow::create(cv::DISOpticalFlow::PRESET_FAST);
+  auto flow = std::make_shared<cv::Mat>();
+  return {"DIS fast", [dis, flow](const cv::Mat& l, const cv::Mat& r) {
+            dis->calc(l, r, *flow);
+            benchmark::DoNotOptimize(flow->data);
+          }};
+}
+
+Pairs toGrey(const Pairs& pairs) {
   Pairs grey(pairs.size());
   for (size_t k = 0; k < pairs.size(); ++k) {
     cv::cvtColor(pairs[k].first, grey[k].first, cv::COLOR_BGR2GRAY);
     cv::cvtColor(pairs[k].second, grey[k].second, cv::COLOR_BGR2GRAY);
   }
-  cv::Mat flow;
-  dis->calc(grey[0].first, grey[0].second, flow);
+  return grey;
+}
+
+// ---- Google Benchmark loops ---------------------------------------------------
+
+/// Times `method` over `pairs` in turn, after one untimed frame that sizes its buffers.
+void timeLoop(benchmark::State& state, const Method& method, const Pairs& pairs) {
+  method.compute(pairs[0].first, pairs[0].second);
   size_t i = 0;
   for (auto _ : state) {
-    const auto& p = grey[i++ % grey.size()];
-    dis->calc(p.first, p.second, flow);
-    benchmark::DoNotOptimize(flow.data);
+    const auto& p = pairs[i++ % pairs.size()];
+    method.compute(p.first, p.second);
   }
 }
 
 void BM_Bdis(benchmark::State& state, const std::string& preset) {
-  timeBdis(state, preset, frames().pairs);
+  cv::setNumThreads(1);
+  timeLoop(state, bdisMethod(preset, bdis::MatcherParams::preset(preset)), frames());
   state.SetItemsProcessed(state.iterations());
 }
 
 void BM_OpenCvDisFast(benchmark::State& state) {
-  timeOpenCvDisFast(state, frames().pairs);
+  cv::setNumThreads(1);
+  timeLoop(state, disFastMethod(), toGrey(frames()));
   state.SetItemsProcessed(state.iterations());
 }
 
@@ -94,26 +167,6 @@ BENCHMARK(BM_OpenCvDisFast)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK_CAPTURE(BM_Bdis, fast, std::string("fast"))->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK_CAPTURE(BM_Bdis, balanced, std::string("balanced"))->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK_CAPTURE(BM_Bdis, accurate, std::string("accurate"))->Unit(benchmark::kMillisecond)->MinTime(2.0);
-
-// ---- Image-size scaling on generated scenes -------------------------------
-
-/// Two frames (0 and 15) of the sample scene at width x height, focal length
-/// scaled with the width (same field of view, so disparities scale too).
-const Pairs& scaledFrames(int width, int height) {
-  static std::map<std::pair<int, int>, Pairs> cache;
-  auto& frames = cache[{width, height}];
-  if (frames.empty()) {
-    bdis::synth::SceneConfig cfg;  // the demo sample: tissue, specular, instrument
-    cfg.width = width;
-    cfg.height = height;
-    const bdis::synth::SyntheticRenderer renderer(cfg);
-    for (int i : {0, 15}) {
-      const bdis::synth::SyntheticFrame f = renderer.render(i);
-      frames.emplace_back(f.left, f.right);
-    }
-  }
-  return frames;
-}
 
 /// Frame size and time per megapixel (printed in seconds: "25m" = 25 ms/MPix).
 void sizeCounters(benchmark::State& state, int width, int height) {
@@ -124,28 +177,188 @@ void sizeCounters(benchmark::State& state, int width, int height) {
 }
 
 void BM_ScalingBdis(benchmark::State& state) {
+  cv::setNumThreads(1);
   const int w = static_cast<int>(state.range(0)), h = static_cast<int>(state.range(1));
-  timeBdis(state, "balanced", scaledFrames(w, h));
+  timeLoop(state, bdisMethod("balanced", bdis::MatcherParams{}), scaledFrames(w, h));
   sizeCounters(state, w, h);
 }
 
 void BM_ScalingOpenCvDisFast(benchmark::State& state) {
+  cv::setNumThreads(1);
   const int w = static_cast<int>(state.range(0)), h = static_cast<int>(state.range(1));
-  timeOpenCvDisFast(state, scaledFrames(w, h));
+  timeLoop(state, disFastMethod(), toGrey(scaledFrames(w, h)));
   sizeCounters(state, w, h);
 }
 
+const std::pair<int, int> kScalingSizes[] = {{320, 240}, {640, 480}, {1280, 720}, {1920, 1080}};
+
 void scalingSizes(benchmark::internal::Benchmark* b) {
   b->ArgNames({"w", "h"});
-  for (const auto& s : {std::pair<int, int>{320, 240}, {640, 480}, {1280, 720}, {1920, 1080}}) {
-    b->Args({s.first, s.second});
-  }
+  for (const auto& s : kScalingSizes) b->Args({s.first, s.second});
   b->Unit(benchmark::kMillisecond)->MinTime(1.0);
 }
 
 BENCHMARK(BM_ScalingOpenCvDisFast)->Apply(scalingSizes);
 BENCHMARK(BM_ScalingBdis)->Apply(scalingSizes);
 
+// ---- --table: one table of medians of thread CPU time -------------------------
+
+double threadCpuMs() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/// Median per-frame time (ms) of each method over `rounds` passes over the
+/// frames; methods take turns frame by frame so a change of load on the
+/// machine hits all of them alike. Each is warmed up on the first frame.
+/// DIS gets the grey frames.
+std::vector<double> medianTimes(const std::vector<Method>& methods, const Pairs& bgr, int rounds) {
+  const Pairs grey = toGrey(bgr);
+  auto inputFor = [&](const Method& m, size_t k) -> const std::pair<cv::Mat, cv::Mat>& {
+    return m.name == "DIS fast" ? grey[k] : bgr[k];
+  };
+  for (const Method& m : methods) m.compute(inputFor(m, 0).first, inputFor(m, 0).second);
+  std::vector<std::vector<double>> times(methods.size());
+  for (int r = 0; r < rounds; ++r) {
+    for (size_t k = 0; k < bgr.size(); ++k) {
+      for (size_t i = 0; i < methods.size(); ++i) {
+        const auto& p = inputFor(methods[i], k);
+        const double t0 = threadCpuMs();
+        methods[i].compute(p.first, p.second);
+        times[i].push_back(threadCpuMs() - t0);
+      }
+    }
+  }
+  std::vector<double> medians;
+  for (const auto& t : times) medians.push_back(median(t));
+  return medians;
+}
+
+void printRows(const std::string& what, cv::Size size, size_t frames, int rounds,
+               const std::vector<Method>& methods, const std::vector<double>& ms) {
+  const double dis_ms = ms.back();  // DIS fast is always last
+  const double mpix = size.area() / 1e6;
+  for (size_t i = 0; i < methods.size(); ++i) {
+    std::printf("| %s | %s | %dx%d | %zu x %d | %.2f ms | %.1f ms | %.2f |\n", what.c_str(),
+                methods[i].name.c_str(), size.width, size.height, frames, rounds, ms[i],
+                ms[i] / mpix, ms[i] / dis_ms);
+  }
+  std::fflush(stdout);
+}
+
+bdis::MatcherParams applySet(bdis::MatcherParams p, const std::string& assignment) {
+  const size_t eq = assignment.find('=');
+  const bdis::ParamField* f =
+      eq == std::string::npos ? nullptr : bdis::findParamField(assignment.substr(0, eq));
+  if (!f) throw std::invalid_argument("--set needs NAME=VALUE with a matcher parameter name");
+  const std::string value = assignment.substr(eq + 1);
+  f->set(p, value == "true" ? 1.0 : value == "false" ? 0.0 : std::stod(value));
+  p.validate();
+  return p;
+}
+
+int runTable(int rounds, bool scaling, const bdis::MatcherParams& balanced) {
+  cv::setNumThreads(1);
+  const bool modified = bdis::toYaml(balanced) != bdis::toYaml(bdis::MatcherParams{});
+  const std::string balanced_name = modified ? "bdis balanced (--set)" : "bdis balanced";
+  auto allMethods = [&] {
+    return std::vector<Method>{bdisMethod("bdis fast", bdis::MatcherParams::preset("fast")),
+                               bdisMethod(balanced_name, balanced),
+                               bdisMethod("bdis accurate", bdis::MatcherParams::preset("accurate")),
+                               disFastMethod()};
+  };
+  std::printf("| measurement | method | size | frames x rounds | per frame | per MPix | / DIS fast |\n");
+  std::printf("|---|---|---|---|---|---|---|\n");
+  const std::string data = bdis::findDataDir();
+  if (data.empty()) {
+    std::printf("| (shared data folder not found: set BDIS_DATA_DIR) | | | | | | |\n");
+  } else {
+    for (const char* name : kSequences) {
+      const Pairs pairs = loadSequence(data + "/" + name);
+      const std::vector<Method> methods = allMethods();
+      printRows(std::string("time, ") + name, pairs[0].first.size(), pairs.size(), rounds, methods,
+                medianTimes(methods, pairs, rounds));
+    }
+  }
+  if (scaling) {
+    for (const auto& [w, h] : kScalingSizes) {
+      const Pairs& pairs = scaledFrames(w, h);
+      const std::vector<Method> methods{bdisMethod(balanced_name, balanced), disFastMethod()};
+      // As many timed frames at every size (about 20 s in all at 1920x1080).
+      const int size_rounds = std::max(3, rounds * 10 * 640 * 480 / (w * h));
+      printRows("time, generated scene (scaling)", cv::Size(w, h), pairs.size(), size_rounds,
+                methods, medianTimes(methods, pairs, size_rounds));
+    }
+  }
+  return 0;
+}
+
+// ---- --one-frame: instructions of one compute under callgrind -----------------
+
+int runOneFrame(const std::string& which, const bdis::MatcherParams& balanced) {
+  cv::setNumThreads(1);
+  const Pairs bgr(frames().begin(), frames().begin() + 1);
+  Method method;
+  Pairs input = bgr;
+  if (which == "dis_fast") {
+    method = disFastMethod();
+    input = toGrey(bgr);
+  } else if (which.rfind("bdis_", 0) == 0) {
+    const std::string preset = which.substr(5);
+    method = bdisMethod(which, preset == "balanced" ? balanced : bdis::MatcherParams::preset(preset));
+  } else {
+    throw std::invalid_argument("--one-frame takes bdis_fast, bdis_balanced, bdis_accurate or dis_fast");
+  }
+  method.compute(input[0].first, input[0].second);  // sizes the buffers
+  CALLGRIND_START_INSTRUMENTATION;
+  method.compute(input[0].first, input[0].second);
+  CALLGRIND_STOP_INSTRUMENTATION;
+  return 0;
+}
+
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  try {
+    bool table = false, scaling = true;
+    int rounds = 5;
+    std::string one_frame;
+    bdis::MatcherParams balanced;
+    std::vector<char*> rest{argv[0]};
+    for (int i = 1; i < argc; ++i) {
+      const std::string a = argv[i];
+      const bool has_value = i + 1 < argc;
+      if (a == "--table") {
+        table = true;
+      } else if (a == "--no-scaling") {
+        scaling = false;
+      } else if (a == "--rounds" && has_value) {
+        rounds = std::max(1, std::stoi(argv[++i]));
+      } else if (a == "--set" && has_value) {
+        balanced = applySet(balanced, argv[++i]);
+      } else if (a == "--one-frame" && has_value) {
+        one_frame = argv[++i];
+      } else {
+        rest.push_back(argv[i]);
+      }
+    }
+    if (!one_frame.empty()) return runOneFrame(one_frame, balanced);
+    if (table) return runTable(rounds, scaling, balanced);
+    int bench_argc = static_cast<int>(rest.size());
+    benchmark::Initialize(&bench_argc, rest.data());
+    if (benchmark::ReportUnrecognizedArguments(bench_argc, rest.data())) return 1;
+    benchmark::RunSpecifiedBenchmarks();
+    benchmark::Shutdown();
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bdis_bench: error: %s\n", e.what());
+    return 1;
+  }
+}

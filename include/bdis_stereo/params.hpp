@@ -21,9 +21,10 @@ struct MatcherParams {
   int coarsest_level = 5;   ///< s_first; reduced automatically for small images
   int finest_level = 1;     ///< s_last; results are upsampled to full size
   // Patch search (inverse-compositional, 1-D).
-  int iterations = 12;      ///< Gauss-Newton steps per patch
+  int iterations = 3;       ///< Gauss-Newton steps per patch at most (more change little)
   int patch_size = 8;       ///< side p of the square patches, px at each level
-  float overlap = 0.6f;     ///< stride = max(1, round(p * (1 - overlap)))
+  float overlap = 0.6f;     ///< stride = max(1, round(p * (1 - overlap))) on the finest level
+  float coarse_overlap = 0.4f;  ///< the same on the coarser levels (they only initialise the next)
   bool mean_normalization = true;  ///< subtract patch means (brightness offset cancels)
   bool propagation = true;  ///< try the neighbouring patches' disparities as starts (as DIS does)
   // Bayesian patch posterior.
@@ -34,7 +35,8 @@ struct MatcherParams {
   float contrast_share = 0.3f;     ///< see above; 0 = paper's fixed-noise posterior
   float sigma_s = 4.0f;            ///< spatial Gaussian inside a patch, px at the level
   float confidence_floor = 0.015f;  ///< pixels whose confidence is lower get no disparity
-  float lr_check_tolerance = 2.f;  ///< left-right check, full-resolution px; 0 = off
+  float lr_check_tolerance = 3.f;  ///< left-right check, full-resolution px; 0 = off
+  float lr_check_overlap = 0.4f;   ///< patch overlap of the check's search from the right image
   bool compute_variance = false;   ///< also output per-pixel disparity variance (px^2)
 
   /// Throws std::invalid_argument naming the first bad field and its range.

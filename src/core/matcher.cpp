@@ -93,35 +93,52 @@ struct SearchPass {
 
   // Per-level state, sized on the first frame of a given size.
   std::vector<cv::Mat1f> init_disparity;  ///< dense coarse-to-fine initialisation per level
-  cv::Mat1f fused_num, fused_den, conf_sum, cover_count, var_num, var_den;
+  cv::Mat1f fused_num, fused_den, conf_sum, var_num, var_den;
   cv::Mat1f level_disparity, level_confidence, level_variance;  ///< finest level, floored
   std::vector<int> xs, ys;
+  std::vector<float> cover_x, cover_y;  ///< patches covering each column / row of the level
+  // upsampleToFull: the level columns and weight of each output column, and
+  // the level rows blended vertically for the current output row.
+  std::vector<int> up_x0, up_x1;
+  std::vector<float> up_ax, up_weight, up_disparity, up_confidence, up_variance;
+  std::vector<float> up_row_weight, up_row_disparity, up_row_confidence;  ///< full width
   std::vector<PatchEstimate> patches;
 
   // Per-patch scratch, p*p or row-sized.
-  std::vector<float> tmpl, grad, spatial, row_buf, costs, likelihood, window_sum, window_sq;
-  std::vector<uchar> tmpl_valid;
+  std::vector<float> spatial, row_buf, costs, likelihood, window_sum, window_sq;
 
   /// What depends only on the parameters (kernels, spatial Gaussian): done
   /// when they are set, not per frame.
   void configure(const MatcherParams& p);
   void allocate(cv::Size size, int levels);
-  /// Matches levels coarsest..finest; leaves the finest level's floored result
-  /// in level_disparity / level_confidence / level_variance.
-  void run(const cv::Mat& reference, const cv::Mat& other, int levels);
+  /// Matches levels coarsest..finest of `pyramid` (built by the caller);
+  /// leaves the finest level's floored result in level_disparity /
+  /// level_confidence / level_variance.
+  void run(int levels);
   void matchLevel(int s, bool finest);
-  // The patch being searched: template, gradient and validity in the scratch
-  // buffers, plus the constant sums the fast path takes from integral images.
+  // The patch being searched: template, gradient and validity read in place
+  // from the level, plus the constant sums the fast path takes from integral images.
   struct CurrentPatch {
     const PyramidLevel* level = nullptr;
     int x0 = 0, y0 = 0;
+    detail::PatchView view{};
+    const uchar* valid = nullptr;  ///< left validity at (x0, y0), rows level->left_valid.step apart
     bool left_all_valid = false;
+    /// Every left pixel of the patch and every right pixel of the level
+    /// valid: an in-image match needs no validity lookup.
+    bool no_invalid_pixels = false;
+    const float* right_rows = nullptr;  ///< right image, column 0 of row y0
+    size_t right_stride = 0;
+    int width = 0;  ///< of the level
     float g_sum = 0.f, g_sq_sum = 0.f;
   } cur;
   std::vector<uchar> patch_loaded;
+  std::vector<CurrentPatch> loaded_patches;  ///< as the forward pass loaded them, for the backward one
   /// Loads the left patch at (x0, y0); false when too few of its pixels are valid.
   bool loadPatch(const PyramidLevel& L, int x0, int y0);
-  void patchSums(float u, bool want_cost, ResidualSums& r);
+  void patchSums(float u, ResidualSums& r);
+  /// patchSums away from the common case: near the image edge or near invalid pixels.
+  void patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r);
   /// Mean squared residual at disparity u (mean-normalised if enabled); +inf without pixels.
   float patchCost(float u, float* valid_count = nullptr);
   float refinePatch(float u_start);
@@ -136,14 +153,13 @@ struct SearchPass {
   }
   bool adoptIfBetter(float candidate, float& u, float& best_cost);
   void fuseLevel(int s, bool finest);
-  void upsampleToFull(int s, const cv::Mat& left, MatchResult& out) const;
+  void upsampleToFull(int s, MatchResult& out);
 };
 
 struct Matcher::Impl {
   MatcherParams params;
   SearchPass left_pass;   ///< left image as reference: the result
   SearchPass right_pass;  ///< mirrored pair, right image as reference: the check
-  cv::Mat mirrored_left, mirrored_right;
 
   /// Removes left estimates that the right-reference pass does not confirm.
   void leftRightCheck(float tolerance);
@@ -190,16 +206,22 @@ void SearchPass::allocate(cv::Size size, int levels) {
   }
   // Level-sized buffers are allocated at the largest searched level (the finest).
   const cv::Size largest(size.width >> params.finest_level, size.height >> params.finest_level);
-  for (cv::Mat1f* m : {&fused_num, &fused_den, &conf_sum, &cover_count, &var_num, &var_den,
-                       &level_disparity, &level_confidence, &level_variance}) {
+  for (cv::Mat1f* m : {&fused_num, &fused_den, &conf_sum, &var_num, &var_den, &level_disparity,
+                       &level_confidence, &level_variance}) {
     m->create(largest);
   }
-  // xs, ys, patches and patch_loaded grow to the finest level's size on the
+  cover_x.resize(static_cast<size_t>(largest.width));
+  cover_y.resize(static_cast<size_t>(largest.height));
+  for (std::vector<float>* v : {&up_ax, &up_weight, &up_disparity, &up_confidence, &up_variance}) {
+    v->resize(static_cast<size_t>(std::max(size.width, largest.width)));
+  }
+  for (std::vector<float>* v : {&up_row_weight, &up_row_disparity, &up_row_confidence}) {
+    v->resize(static_cast<size_t>(size.width));
+  }
+  up_x0.resize(static_cast<size_t>(size.width));
+  up_x1.resize(static_cast<size_t>(size.width));
+  // xs, ys, patches, patch_loaded and loaded_patches grow to the finest level's size on the
   // first frame and keep that capacity afterwards.
-  const size_t pp = static_cast<size_t>(p) * p;
-  tmpl.resize(pp);
-  grad.resize(pp);
-  tmpl_valid.resize(pp);
   const int max_window_span = static_cast<int>(
       std::ceil(2.f * static_cast<float>(params.window_half_width) * params.window_step));
   row_buf.resize(static_cast<size_t>(p + max_window_span + 2));
@@ -220,18 +242,20 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
 
   m.left_pass.params = P;
   m.left_pass.params.finest_level = finest;
-  m.left_pass.run(left, right, levels);
+  m.left_pass.pyramid.build(left, right, levels, finest);
+  m.left_pass.run(levels);
   if (P.lr_check_tolerance > 0.f) {
-    // Mirroring turns "right as reference" into the same left-reference search.
-    cv::flip(right, m.mirrored_left, 1);
-    cv::flip(left, m.mirrored_right, 1);
     m.right_pass.params = m.left_pass.params;
     m.right_pass.params.compute_variance = false;
     m.right_pass.params.confidence_floor = 0.f;  // any fused estimate may confirm
-    m.right_pass.run(m.mirrored_left, m.mirrored_right, levels);
+    // The check only confirms or refutes: a sparser grid does.
+    m.right_pass.params.overlap = P.lr_check_overlap;
+    // Mirroring turns "right as reference" into the same left-reference search.
+    m.right_pass.pyramid.buildMirrored(m.left_pass.pyramid, levels, m.right_pass.params.finest_level);
+    m.right_pass.run(levels);
     m.leftRightCheck(P.lr_check_tolerance / static_cast<float>(1 << finest));
   }
-  m.left_pass.upsampleToFull(finest, left, result);
+  m.left_pass.upsampleToFull(finest, result);
 }
 
 void Matcher::Impl::leftRightCheck(float tolerance) {
@@ -244,7 +268,7 @@ void Matcher::Impl::leftRightCheck(float tolerance) {
     const float* dr = mirrored[y];
     for (int x = 0; x < w; ++x) {
       if (dl[x] < 0.f) continue;
-      const int xr = static_cast<int>(std::lround(static_cast<float>(x) - dl[x]));
+      const int xr = static_cast<int>(std::floor(static_cast<float>(x) - dl[x] + 0.5f));
       const float back = xr >= 0 ? dr[w - 1 - xr] : kNoDisparity;
       if (back < 0.f || std::fabs(back - dl[x]) > tolerance) {
         dl[x] = kNoDisparity;
@@ -254,10 +278,9 @@ void Matcher::Impl::leftRightCheck(float tolerance) {
   }
 }
 
-void SearchPass::run(const cv::Mat& reference, const cv::Mat& other, int levels) {
+void SearchPass::run(int levels) {
   const int finest = params.finest_level;
-  allocate(reference.size(), levels);
-  pyramid.build(reference, other, levels, finest);
+  allocate(pyramid.size(), levels);
 
   // Start from zero disparity above the coarsest level.
   fill(init_disparity[levels], 0.f);
@@ -267,12 +290,15 @@ void SearchPass::run(const cv::Mat& reference, const cv::Mat& other, int levels)
 void SearchPass::matchLevel(int s, bool finest) {
   const PyramidLevel& L = pyramid.level(s);
   const int p = params.patch_size;
-  const int stride = std::max(1, static_cast<int>(std::lround(p * (1.0 - params.overlap))));
+  // Coarser levels only initialise the next one: they get by with fewer patches.
+  const double overlap = finest ? params.overlap : params.coarse_overlap;
+  const int stride = std::max(1, static_cast<int>(std::lround(p * (1.0 - overlap))));
   patchAxis(L.width, p, stride, xs);
   patchAxis(L.height, p, stride, ys);
   const int nx = static_cast<int>(xs.size()), ny = static_cast<int>(ys.size());
   patches.resize(static_cast<size_t>(nx) * static_cast<size_t>(ny));
   patch_loaded.resize(patches.size());
+  loaded_patches.resize(patches.size());
 
   const cv::Mat1f& coarse = init_disparity[s + 1];
   const float half = 0.5f * static_cast<float>(p - 1);
@@ -285,14 +311,16 @@ void SearchPass::matchLevel(int s, bool finest) {
       const int x0 = xs[static_cast<size_t>(ix)], y0 = ys[static_cast<size_t>(iy)];
       const float cx = (static_cast<float>(x0) + half + 0.5f) * 0.5f - 0.5f;
       const float cy = (static_cast<float>(y0) + half + 0.5f) * 0.5f - 0.5f;
-      const int ccx = std::clamp(static_cast<int>(std::lround(cx)), 0, coarse.cols - 1);
-      const int ccy = std::clamp(static_cast<int>(std::lround(cy)), 0, coarse.rows - 1);
+      // cx, cy > 0: adding 0.5 and truncating rounds them (lround is a libm call).
+      const int ccx = std::min(static_cast<int>(cx + 0.5f), coarse.cols - 1);
+      const int ccy = std::min(static_cast<int>(cy + 0.5f), coarse.rows - 1);
       float u = 2.f * coarse(ccy, ccx);
       patches[k] = PatchEstimate{u, 0.f, 0.f};
       patch_loaded[k] = loadPatch(L, x0, y0);
       if (!patch_loaded[k]) continue;
+      loaded_patches[k] = cur;
       if (params.propagation) {
-        float best = patchCost(u);
+        float best = kNaN;  // the cost at u, computed when first needed
         if (ix > 0 && patch_loaded[k - 1]) adoptIfBetter(patches[k - 1].disparity, u, best);
         if (iy > 0 && patch_loaded[k - static_cast<size_t>(nx)]) {
           adoptIfBetter(patches[k - static_cast<size_t>(nx)].disparity, u, best);
@@ -307,10 +335,10 @@ void SearchPass::matchLevel(int s, bool finest) {
     for (int ix = nx - 1; ix >= 0; --ix) {
       const size_t k = static_cast<size_t>(iy * nx + ix);
       if (!patch_loaded[k]) continue;
-      loadPatch(L, xs[static_cast<size_t>(ix)], ys[static_cast<size_t>(iy)]);
+      cur = loaded_patches[k];
       float u = patches[k].disparity;
       if (params.propagation) {
-        float best = patchCost(u);
+        float best = kNaN;
         bool moved = false;
         if (ix + 1 < nx && patch_loaded[k + 1]) moved |= adoptIfBetter(patches[k + 1].disparity, u, best);
         if (iy + 1 < ny && patch_loaded[k + static_cast<size_t>(nx)]) {
@@ -325,7 +353,12 @@ void SearchPass::matchLevel(int s, bool finest) {
 }
 
 bool SearchPass::adoptIfBetter(float candidate, float& u, float& best_cost) {
-  if (std::fabs(candidate - u) < 1e-3f) return false;
+  // A neighbour's disparity this close to the patch's own is not worth a
+  // cost: the refinement would end where it ends from u (the scores on the
+  // colon and generated sequences do not change).
+  constexpr float kMinCandidateDistance = 0.1f;
+  if (std::fabs(candidate - u) < kMinCandidateDistance) return false;
+  if (std::isnan(best_cost)) best_cost = patchCost(u);  // only once some candidate is tried
   const float c = patchCost(candidate);
   if (!(c < best_cost)) return false;
   u = candidate;
@@ -340,31 +373,47 @@ bool SearchPass::loadPatch(const PyramidLevel& L, int x0, int y0) {
   if (static_cast<float>(pp - left_invalid) < params.min_valid_share * static_cast<float>(pp)) {
     return false;  // mostly outside the rectified view
   }
-  for (int y = 0; y < p; ++y) {
-    std::copy_n(L.left[y0 + y] + x0, p, tmpl.data() + y * p);
-    std::copy_n(L.left_gx[y0 + y] + x0, p, grad.data() + y * p);
-    std::copy_n(L.left_valid[y0 + y] + x0, p, tmpl_valid.data() + y * p);
-  }
-  cur = {&L, x0, y0, left_invalid == 0,
+  cur = {&L,
+         x0,
+         y0,
+         {L.left[y0] + x0, L.left_gx[y0] + x0, rowStride(L.left)},
+         L.left_valid[y0] + x0,
+         left_invalid == 0,
+         left_invalid == 0 && L.right_all_valid,
+         L.right[y0],
+         rowStride(L.right),
+         L.width,
          static_cast<float>(rectSum(L.gx_sum, x0, y0, x0 + p, y0 + p)),
          static_cast<float>(rectSum(L.gx_sq_sum, x0, y0, x0 + p, y0 + p))};
   return true;
 }
 
-void SearchPass::patchSums(float u, bool want_cost, ResidualSums& r) {
-  const PyramidLevel& L = *cur.level;
+void SearchPass::patchSums(float u, ResidualSums& r) {
   const int p = params.patch_size;
   const SampleSpan span = detail::sampleSpan(cur.x0, u);
-  if (!cur.left_all_valid) {
-    detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, tmpl.data(), grad.data(),
-                       tmpl_valid.data(), r);
+  // Fast path: the span and its right neighbour column inside the image, and
+  // no invalid pixel anywhere near (the usual case, kept short).
+  if (cur.no_invalid_pixels && span.base >= 0 && span.base + p < cur.width) {
+    kernels->sums_all_valid(cur.right_rows, cur.right_stride, p, span, cur.view, r);
+    r.g = cur.g_sum;
+    r.g_sq = cur.g_sq_sum;
     return;
   }
-  // Fast path: the span and its right neighbour column inside the image and valid.
+  patchSumsNearInvalidOrEdge(span, r);
+}
+
+void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
+  const PyramidLevel& L = *cur.level;
+  const int p = params.patch_size;
+  if (!cur.left_all_valid) {
+    detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, cur.view, cur.valid,
+                       L.left_valid.step1(), r);
+    return;
+  }
+  // Inside the image, with invalid right pixels elsewhere on the level.
   if (span.base >= 0 && span.base + p < L.width &&
       rectSum(L.right_invalid, span.base, cur.y0, span.base + p + 1, cur.y0 + p) == 0) {
-    kernels->sums_all_valid(L.right[cur.y0], rowStride(L.right), p, span, tmpl.data(), grad.data(),
-                            want_cost, row_buf.data(), r);
+    kernels->sums_all_valid(cur.right_rows, cur.right_stride, p, span, cur.view, r);
     r.g = cur.g_sum;
     r.g_sq = cur.g_sq_sum;
     return;
@@ -372,19 +421,19 @@ void SearchPass::patchSums(float u, bool want_cost, ResidualSums& r) {
   // Near or past the image edge: sum over the columns inside it, if those are valid.
   const detail::ColumnRange cols = detail::columnsInside(L.width, p, span);
   const int taps = span.frac > 0.f ? 1 : 0;
-  if (cols.empty() || rectSum(L.right_invalid, span.base + cols.begin, cur.y0,
-                              span.base + cols.end + taps, cur.y0 + p) == 0) {
-    detail::sumsClipped(L.right[cur.y0], rowStride(L.right), p, span, cols, tmpl.data(),
-                        grad.data(), r);
+  if (cols.empty() || L.right_all_valid ||
+      rectSum(L.right_invalid, span.base + cols.begin, cur.y0, span.base + cols.end + taps,
+              cur.y0 + p) == 0) {
+    kernels->sums_clipped(cur.right_rows, cur.right_stride, p, span, cols, cur.view, r);
   } else {
-    detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, tmpl.data(), grad.data(),
-                       tmpl_valid.data(), r);
+    detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, cur.view, cur.valid,
+                       L.left_valid.step1(), r);
   }
 }
 
 float SearchPass::patchCost(float u, float* valid_count) {
   ResidualSums r;
-  patchSums(u, true, r);
+  patchSums(u, r);
   if (valid_count) *valid_count = r.count;
   if (r.count <= 0.f) return std::numeric_limits<float>::infinity();
   const float mean = r.diff / r.count;
@@ -397,7 +446,7 @@ float SearchPass::refinePatch(float u_start) {
   float u = u_start;
   ResidualSums r;
   for (int it = 0; it < params.iterations; ++it) {
-    patchSums(u, false, r);
+    patchSums(u, r);
     if (r.count <= 0.f) break;
     float b = r.g_diff, H = r.g_sq;
     if (params.mean_normalization) {
@@ -407,7 +456,7 @@ float SearchPass::refinePatch(float u_start) {
     if (H <= 1e-6f) break;  // no texture: nothing to align on
     const float step = b / H;
     u = std::clamp(u + step, 0.f, max_u);
-    if (std::fabs(step) < 1e-3f) break;
+    if (std::fabs(step) < 0.01f) break;  // converged: far below what a match resolves
   }
   // Outlier guard: wandered more than a patch from its start.
   if (std::fabs(u - u_start) > static_cast<float>(params.patch_size)) u = u_start;
@@ -427,7 +476,7 @@ float SearchPass::windowCosts(float u) {
     if (lo.base >= 0 && last < L.width &&
         rectSum(L.right_invalid, lo.base, cur.y0, last + 1, cur.y0 + p) == 0) {
       kernels->window_costs(L.right[cur.y0], rowStride(L.right), p, lo.base, lo.frac, 2 * n + 1,
-                            step, tmpl.data(), params.mean_normalization, row_buf.data(),
+                            step, cur.view, params.mean_normalization, row_buf.data(),
                             window_sum.data(), window_sq.data(), costs.data());
       return static_cast<float>(p * p);
     }
@@ -461,10 +510,12 @@ PatchEstimate SearchPass::patchPosterior(float u) {
   float sum = 0.f;
   for (int j = 0; j < 2 * n + 1; ++j) {
     const float e = costs[static_cast<size_t>(j)];
-    likelihood[static_cast<size_t>(j)] = std::isfinite(e) ? std::exp(-(e - e0) * inv) : 0.f;
+    // exp(0) = 1 at the optimum, without the call.
+    likelihood[static_cast<size_t>(j)] =
+        j == n ? 1.f : std::isfinite(e) ? std::exp(-(e - e0) * inv) : 0.f;
     sum += likelihood[static_cast<size_t>(j)];
   }
-  est.posterior = 1.f / sum;  // likelihood at the optimum is exp(0) = 1
+  est.posterior = 1.f / sum;
   const float chance = 1.f / static_cast<float>(2 * n + 1);
   est.evidence = std::max(0.f, (est.posterior - chance) / (1.f - chance));
 
@@ -486,36 +537,130 @@ PatchEstimate SearchPass::patchPosterior(float u) {
   return est;
 }
 
+namespace {
+
+// Per-row loops of fusion and upsampling. Their rows are __restrict
+// parameters: without them GCC gives up vectorising for the many possible
+// aliases between the outputs and the inputs.
+
+/// Fused disparity where any patch survived; 0 elsewhere (the caller fills those).
+BDIS_ROW_LOOP
+void fusedRow(int n, const float* __restrict num, const float* __restrict den,
+              float* __restrict out) {
+  for (int x = 0; x < n; ++x) {
+    const float d = num[x] / std::max(den[x], std::numeric_limits<float>::min());
+    const float value = den[x] > 0.f ? d : 0.f;
+    out[x] = value;
+  }
+}
+
+/// The finest level's output row: fused disparity and confidence where some
+/// patch survived and the confidence reaches the floor.
+BDIS_ROW_LOOP
+void floorRow(int n, const float* __restrict fused, const float* __restrict den,
+              const float* __restrict conf_sum, const float* __restrict cover_x, float cover_y,
+              float confidence_floor, float* __restrict disparity, float* __restrict confidence) {
+  for (int x = 0; x < n; ++x) {
+    const float conf = conf_sum[x] / (cover_y * cover_x[x]), f = fused[x];
+    const bool keep = (den[x] > 0.f) & (conf >= confidence_floor);  // & : no branch
+    const float d = keep ? f : kNoDisparity, c = keep ? conf : 0.f;
+    disparity[x] = d;
+    confidence[x] = c;
+  }
+}
+
+/// Blends two level rows with weights (1 - a, a), counting only pixels with
+/// an estimate: the weight, weighted disparity and weighted confidence.
+BDIS_ROW_LOOP
+void blendRows(int n, const float* __restrict d0, const float* __restrict d1,
+               const float* __restrict c0, const float* __restrict c1, float a,
+               float* __restrict weight, float* __restrict disparity,
+               float* __restrict confidence) {
+  for (int x = 0; x < n; ++x) {
+    const float w0 = d0[x] >= 0.f ? 1.f - a : 0.f;
+    const float w1 = d1[x] >= 0.f ? a : 0.f;
+    weight[x] = w0 + w1;
+    disparity[x] = w0 * d0[x] + w1 * d1[x];
+    confidence[x] = w0 * c0[x] + w1 * c1[x];
+  }
+}
+
+/// dst[x] = (1 - ax[x]) src[x0[x]] + ax[x] src[x1[x]]: one level row
+/// interpolated to the output columns.
+void interpolateColumns(int n, const int* x0, const int* x1, const float* ax,
+                        const float* __restrict src, float* __restrict dst) {
+  for (int x = 0; x < n; ++x) dst[x] = (1.f - ax[x]) * src[x0[x]] + ax[x] * src[x1[x]];
+}
+
+/// The same for exactly twice the level width (finest level 1, the usual
+/// case), where the taps repeat: output columns 2i+1 and 2i+2 lie a quarter
+/// and three quarters of the way from level column i to i+1, and the two
+/// outermost columns copy the outermost level columns. Same arithmetic, so
+/// the same values, but a loop that vectorises.
+BDIS_ROW_LOOP
+void interpolateColumnsTwice(int level_width, const float* __restrict src, float* __restrict dst) {
+  dst[0] = src[0];
+  for (int i = 0; i + 1 < level_width; ++i) {
+    const float a = src[i], b = src[i + 1];
+    dst[2 * i + 1] = 0.75f * a + 0.25f * b;
+    dst[2 * i + 2] = 0.25f * a + 0.75f * b;
+  }
+  dst[2 * level_width - 1] = src[level_width - 1];
+}
+
+/// Final output row: weighted means where the input pixel is valid and the
+/// estimates around it carry more than a quarter of the weight.
+BDIS_ROW_LOOP
+void upsampledRow(int n, const uchar* __restrict valid, const float* __restrict weight,
+                  const float* __restrict disparity, const float* __restrict confidence,
+                  float scale, float* __restrict d_out, float* __restrict c_out) {
+  for (int x = 0; x < n; ++x) {
+    const bool keep = (valid[x] != 0) & (weight[x] > 0.25f);  // & : no branch
+    const float w = std::max(weight[x], 0.25f);
+    const float d = scale * disparity[x] / w, c = confidence[x] / w;
+    const float d_kept = keep ? d : kNoDisparity, c_kept = keep ? c : 0.f;
+    d_out[x] = d_kept;
+    c_out[x] = c_kept;
+  }
+}
+
+/// Patches covering each pixel along one axis of a level.
+void coverAlongAxis(const std::vector<int>& origins, int p, std::vector<float>& cover, int extent) {
+  std::fill(cover.begin(), cover.begin() + extent, 0.f);
+  for (int o : origins) {
+    for (int i = o; i < o + p; ++i) cover[static_cast<size_t>(i)] += 1.f;
+  }
+}
+
+}  // namespace
+
 void SearchPass::fuseLevel(int s, bool finest) {
   const PyramidLevel& L = pyramid.level(s);
   const int p = params.patch_size;
   const cv::Rect roi(0, 0, L.width, L.height);
-  cv::Mat1f num = fused_num(roi), den = fused_den(roi), csum = conf_sum(roi),
-            cover = cover_count(roi), vnum = var_num(roi), vden = var_den(roi);
-  for (cv::Mat1f* m : {&num, &den, &csum, &cover, &vnum, &vden}) fill(*m, 0.f);
+  cv::Mat1f num = fused_num(roi), den = fused_den(roi), csum = conf_sum(roi), vnum = var_num(roi),
+            vden = var_den(roi);
   const bool variance = params.compute_variance && finest;
+  for (cv::Mat1f* m : {&num, &den, &csum}) fill(*m, 0.f);
+  if (variance) {
+    fill(vnum, 0.f);
+    fill(vden, 0.f);
+  }
+  // The grid is regular: the patches covering a pixel are those covering its
+  // column times those covering its row.
+  coverAlongAxis(xs, p, cover_x, L.width);
+  coverAlongAxis(ys, p, cover_y, L.height);
 
   size_t k = 0;
   for (int y0 : ys) {
     for (int x0 : xs) {
       const PatchEstimate& e = patches[k++];
-      for (int y = 0; y < p; ++y) {
-        float* c = cover[y0 + y] + x0;
-        for (int x = 0; x < p; ++x) c[x] += 1.f;
-      }
       if (e.posterior <= 0.f) continue;
-      for (int y = 0; y < p; ++y) {
-        const float* g = spatial.data() + y * p;
-        float* nr = num[y0 + y] + x0;
-        float* dr = den[y0 + y] + x0;
-        float* cr = csum[y0 + y] + x0;
-        for (int x = 0; x < p; ++x) {
-          const float w = e.posterior * g[x];
-          nr[x] += w * e.disparity;
-          dr[x] += w;
-          cr[x] += e.evidence;
-        }
-        if (variance) {
+      kernels->accumulate_patch(p, spatial.data(), e.posterior, e.disparity, e.evidence,
+                                num[y0] + x0, den[y0] + x0, csum[y0] + x0, rowStride(num));
+      if (variance) {
+        for (int y = 0; y < p; ++y) {
+          const float* g = spatial.data() + y * p;
           float* vn = vnum[y0 + y] + x0;
           float* vd = vden[y0 + y] + x0;
           for (int x = 0; x < p; ++x) {
@@ -532,29 +677,34 @@ void SearchPass::fuseLevel(int s, bool finest) {
   // patch survived, otherwise this level's own initialisation.
   cv::Mat1f& init = init_disparity[s];
   const cv::Mat1f& coarse = init_disparity[s + 1];
+  const int w = L.width;
   for (int y = 0; y < L.height; ++y) {
-    const int cy = std::min(y / 2, coarse.rows - 1);
-    for (int x = 0; x < L.width; ++x) {
-      const float d = den(y, x);
-      const float conf = cover(y, x) > 0.f ? csum(y, x) / cover(y, x) : 0.f;
-      init(y, x) = d > 0.f ? num(y, x) / d : 2.f * coarse(cy, std::min(x / 2, coarse.cols - 1));
-      if (finest) {
-        const bool keep = d > 0.f && conf >= params.confidence_floor;
-        level_disparity(y, x) = keep ? init(y, x) : kNoDisparity;
-        level_confidence(y, x) = keep ? conf : 0.f;
-        // Squared weights can underflow for a tiny sigma_s: report the maximal
-        // variance then rather than 0/0.
-        if (variance) {
-          level_variance(y, x) =
-              !keep ? kNaN : vden(y, x) > 0.f ? vnum(y, x) / vden(y, x) : maxVariance();
-        }
-      }
+    const float* nr = num[y];
+    const float* dr = den[y];
+    const float* cr = csum[y];
+    const float* coarse_row = coarse[std::min(y / 2, coarse.rows - 1)];
+    float* ir = init[y];
+    fusedRow(w, nr, dr, ir);
+    for (int x = 0; x < w; ++x) {
+      if (!(dr[x] > 0.f)) ir[x] = 2.f * coarse_row[std::min(x / 2, coarse.cols - 1)];  // rare
+    }
+    if (!finest) continue;
+    float* dout = level_disparity[y];
+    floorRow(w, ir, dr, cr, cover_x.data(), cover_y[static_cast<size_t>(y)],
+             params.confidence_floor, dout, level_confidence[y]);
+    if (!variance) continue;
+    float* vout = level_variance[y];
+    for (int x = 0; x < w; ++x) {
+      // Squared weights can underflow for a tiny sigma_s: report the maximal
+      // variance then rather than 0/0.
+      vout[x] = dout[x] < 0.f ? kNaN : vden(y, x) > 0.f ? vnum(y, x) / vden(y, x) : maxVariance();
     }
   }
 }
 
-void SearchPass::upsampleToFull(int s, const cv::Mat& left, MatchResult& out) const {
-  const int W = left.cols, H = left.rows;
+void SearchPass::upsampleToFull(int s, MatchResult& out) {
+  const cv::Size full_size = pyramid.size();
+  const int W = full_size.width, H = full_size.height;
   const PyramidLevel& L = pyramid.level(s);
   const bool variance = params.compute_variance;
   out.disparity.create(H, W, CV_32FC1);
@@ -568,39 +718,59 @@ void SearchPass::upsampleToFull(int s, const cv::Mat& left, MatchResult& out) co
   const float scale = static_cast<float>(1 << s);
   const float inv = 1.f / scale;
   const float var_scale = scale * scale;
+  const int level_width = L.width;
+  const bool twice = s == 1 && W == 2 * level_width;
+  // Bilinear among the neighbours that have an estimate. The taps of a
+  // column are the same on every row: computed once per frame.
+  for (int x = 0; x < W; ++x) {
+    const float fx = std::clamp((static_cast<float>(x) + 0.5f) * inv - 0.5f, 0.f,
+                                static_cast<float>(L.width - 1));
+    up_x0[static_cast<size_t>(x)] = static_cast<int>(fx);
+    up_x1[static_cast<size_t>(x)] = std::min(static_cast<int>(fx) + 1, L.width - 1);
+    up_ax[static_cast<size_t>(x)] = fx - static_cast<float>(static_cast<int>(fx));
+  }
+  float* vw = up_weight.data();
+  float* vd = up_disparity.data();
+  float* vc = up_confidence.data();
+  float* vv = up_variance.data();
   for (int y = 0; y < H; ++y) {
-    float* dout = out.disparity.ptr<float>(y);
-    float* cout = out.confidence.ptr<float>(y);
-    float* vout = variance ? out.variance.ptr<float>(y) : nullptr;
-    const uchar* valid = full.left_valid[y];
+    // Blend the two level rows first (weights of rows with an estimate, and
+    // weighted values), then the two columns of each output pixel.
     const float fy = std::clamp((static_cast<float>(y) + 0.5f) * inv - 0.5f, 0.f,
                                 static_cast<float>(L.height - 1));
     const int y0 = static_cast<int>(fy);
     const int y1 = std::min(y0 + 1, L.height - 1);
     const float ay = fy - static_cast<float>(y0);
-    for (int x = 0; x < W; ++x) {
-      const float fx = std::clamp((static_cast<float>(x) + 0.5f) * inv - 0.5f, 0.f,
-                                  static_cast<float>(L.width - 1));
-      const int x0 = static_cast<int>(fx);
-      const int x1 = std::min(x0 + 1, L.width - 1);
-      const float ax = fx - static_cast<float>(x0);
-      const int xs4[4] = {x0, x1, x0, x1};
-      const int ys4[4] = {y0, y0, y1, y1};
-      const float w4[4] = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
-      // Interpolate among neighbours that have an estimate.
-      float wsum = 0, dsum = 0, csum = 0, vsum = 0;
-      for (int i = 0; i < 4; ++i) {
-        const float d = level_disparity(ys4[i], xs4[i]);
-        if (d < 0.f) continue;
-        wsum += w4[i];
-        dsum += w4[i] * d;
-        csum += w4[i] * level_confidence(ys4[i], xs4[i]);
-        if (variance) vsum += w4[i] * level_variance(ys4[i], xs4[i]);
+    const float *d0 = level_disparity[y0], *d1 = level_disparity[y1];
+    blendRows(level_width, d0, d1, level_confidence[y0], level_confidence[y1], ay, vw, vd, vc);
+    if (variance) {
+      const float *v0 = level_variance[y0], *v1 = level_variance[y1];
+      for (int x = 0; x < level_width; ++x) {
+        // NaN where there is no estimate: only weighted where there is one.
+        vv[x] = (d0[x] >= 0.f ? (1.f - ay) * v0[x] : 0.f) + (d1[x] >= 0.f ? ay * v1[x] : 0.f);
       }
-      const bool keep = valid[x] && wsum > 0.25f;
-      dout[x] = keep ? scale * dsum / wsum : kNoDisparity;
-      cout[x] = keep ? csum / wsum : 0.f;
-      if (variance) vout[x] = keep ? var_scale * vsum / wsum : kNaN;
+    }
+    float* hw = up_row_weight.data();
+    float* hd = up_row_disparity.data();
+    float* hc = up_row_confidence.data();
+    for (const auto& [level_row, out_row] : {std::pair<float*, float*>{vw, hw}, {vd, hd}, {vc, hc}}) {
+      if (twice) {
+        interpolateColumnsTwice(level_width, level_row, out_row);
+      } else {
+        interpolateColumns(W, up_x0.data(), up_x1.data(), up_ax.data(), level_row, out_row);
+      }
+    }
+    float* dout = out.disparity.ptr<float>(y);
+    upsampledRow(W, full.left_valid[y], hw, hd, hc, scale, dout, out.confidence.ptr<float>(y));
+    if (!variance) continue;
+    float* vout = out.variance.ptr<float>(y);
+    for (int x = 0; x < W; ++x) {
+      const size_t i0 = static_cast<size_t>(up_x0[static_cast<size_t>(x)]);
+      const size_t i1 = static_cast<size_t>(up_x1[static_cast<size_t>(x)]);
+      const float ax = up_ax[static_cast<size_t>(x)];
+      const float wsum = (1.f - ax) * vw[i0] + ax * vw[i1];
+      const float vsum = (1.f - ax) * vv[i0] + ax * vv[i1];
+      vout[x] = dout[x] >= 0.f ? var_scale * vsum / wsum : kNaN;
     }
   }
 }

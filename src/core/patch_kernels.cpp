@@ -14,7 +14,8 @@ const KernelSet* avx2KernelsFor(int patch_size);
 #endif
 
 namespace {
-constexpr KernelSet kScalar{"scalar", &sumsAllValid, &windowCostsAllValid};
+constexpr KernelSet kScalar{"scalar", &sumsAllValid, &sumsClipped, &windowCostsAllValid,
+                            &accumulatePatch};
 
 bool cpuHasAvx2() {
 #if defined(BDIS_HAVE_AVX2_KERNELS) && (defined(__GNUC__) || defined(__clang__))

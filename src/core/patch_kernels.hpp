@@ -10,6 +10,15 @@
 
 #include <opencv2/core.hpp>
 
+/// Marks a per-pixel row loop to be compiled twice, for the baseline and for
+/// AVX2 (eight floats a vector instead of four), the loader picking the one
+/// the CPU runs. AVX2 without FMA: the same operations, so the same values.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define BDIS_ROW_LOOP __attribute__((target_clones("avx2", "default")))
+#else
+#define BDIS_ROW_LOOP
+#endif
+
 namespace bdis {
 namespace detail {
 
@@ -36,6 +45,15 @@ inline SampleSpan sampleSpan(int x0, float disparity) {
   return {static_cast<int>(fl), xs - fl};
 }
 
+/// The template side of a patch, read in place from the left level: grey
+/// values and x-gradients at the patch's top-left pixel, rows `stride` floats
+/// apart (both images share one row pitch).
+struct PatchView {
+  const float* tmpl;
+  const float* grad;
+  size_t stride;
+};
+
 /// Interpolates `len` samples of a right-image row starting at column `base`.
 inline void interpolateRow(const float* row, int base, float frac, int len, float* out) {
   const float w0 = 1.f - frac;
@@ -45,20 +63,21 @@ inline void interpolateRow(const float* row, int base, float frac, int len, floa
 
 /// Fast path: every template pixel valid and the right span [base, base+p]
 /// inside the image and valid. `rows` points at column 0 of the patch's first
-/// right-image row, `stride` is the row pitch in floats. T and G are p*p,
-/// row-major.
-inline void sumsAllValid(const float* rows, size_t stride, int p, SampleSpan span, const float* T,
-                         const float* G, bool want_cost, float* row_buf, ResidualSums& out) {
+/// right-image row, `stride` is the row pitch in floats. Leaves g and g_sq
+/// alone (the caller has them from integral images).
+inline void sumsAllValid(const float* rows, size_t stride, int p, SampleSpan span,
+                         const PatchView& patch, ResidualSums& out) {
+  const float w0 = 1.f - span.frac, w1 = span.frac;
   float sd = 0, sdd = 0, sgd = 0;
   for (int y = 0; y < p; ++y) {
-    interpolateRow(rows + y * stride, span.base, span.frac, p, row_buf);
-    const float* t = T + y * p;
-    const float* g = G + y * p;
+    const float* r = rows + y * stride + span.base;
+    const float* t = patch.tmpl + y * patch.stride;
+    const float* g = patch.grad + y * patch.stride;
     for (int i = 0; i < p; ++i) {
-      const float d = row_buf[i] - t[i];
+      const float d = w0 * r[i] + w1 * r[i + 1] - t[i];
       sd += d;
       sgd += g[i] * d;
-      if (want_cost) sdd += d * d;
+      sdd += d * d;
     }
   }
   out.count = static_cast<float>(p * p);
@@ -74,13 +93,14 @@ inline void sumsAllValid(const float* rows, size_t stride, int p, SampleSpan spa
 /// Requires the columns base_lo .. base_lo + p + step * (samples - 1) valid.
 /// Writes the mean squared residual (mean-normalised if asked) per sample.
 inline void windowCostsAllValid(const float* rows, size_t stride, int p, int base_lo, float frac,
-                                int samples, int step, const float* T, bool mean_normalization,
-                                float* row_buf, float* sum, float* sum_sq, float* costs) {
+                                int samples, int step, const PatchView& patch,
+                                bool mean_normalization, float* row_buf, float* sum, float* sum_sq,
+                                float* costs) {
   const int len = p + step * (samples - 1);
   for (int j = 0; j < samples; ++j) sum[j] = sum_sq[j] = 0.f;
   for (int y = 0; y < p; ++y) {
     interpolateRow(rows + y * stride, base_lo, frac, len, row_buf);
-    const float* t = T + y * p;
+    const float* t = patch.tmpl + y * patch.stride;
     for (int j = 0; j < samples; ++j) {
       const float* r = row_buf + step * (samples - 1 - j);
       float sd = 0, sdd = 0;
@@ -116,7 +136,7 @@ inline ColumnRange columnsInside(int width, int p, SampleSpan span) {
 /// `cols`, the columns that stay inside the image (a match near or past its
 /// edge): sums over those columns without per-pixel tests.
 inline void sumsClipped(const float* rows, size_t stride, int p, SampleSpan span, ColumnRange cols,
-                        const float* T, const float* G, ResidualSums& out) {
+                        const PatchView& patch, ResidualSums& out) {
   out = ResidualSums{};
   if (cols.empty()) return;
   const bool two_taps = span.frac > 0.f;
@@ -124,8 +144,8 @@ inline void sumsClipped(const float* rows, size_t stride, int p, SampleSpan span
   float sd = 0, sdd = 0, sgd = 0, sg = 0, sgg = 0;
   for (int y = 0; y < p; ++y) {
     const float* r = rows + y * stride + span.base;
-    const float* t = T + y * p;
-    const float* g = G + y * p;
+    const float* t = patch.tmpl + y * patch.stride;
+    const float* g = patch.grad + y * patch.stride;
     for (int i = cols.begin; i < cols.end; ++i) {
       const float sample = two_taps ? w0 * r[i] + w1 * r[i + 1] : r[i];
       const float d = sample - t[i];
@@ -139,11 +159,12 @@ inline void sumsClipped(const float* rows, size_t stride, int p, SampleSpan span
   out = {static_cast<float>((cols.end - cols.begin) * p), sd, sdd, sgd, sg, sgg};
 }
 
-/// General path: pixels invalid in the template (M == 0), outside the image,
-/// or touching an invalid right pixel are left out of every sum.
+/// General path: pixels invalid in the template (M == 0; rows `mask_stride`
+/// bytes apart), outside the image, or touching an invalid right pixel are
+/// left out of every sum.
 inline void sumsMasked(const cv::Mat1f& right, const cv::Mat1b& right_valid, int y0, int p,
-                       SampleSpan span, const float* T, const float* G, const uchar* M,
-                       ResidualSums& out) {
+                       SampleSpan span, const PatchView& patch, const uchar* M,
+                       size_t mask_stride, ResidualSums& out) {
   const int w = right.cols;
   const bool two_taps = span.frac > 0.f;
   const float w0 = 1.f - span.frac;
@@ -151,9 +172,9 @@ inline void sumsMasked(const cv::Mat1f& right, const cv::Mat1b& right_valid, int
   for (int y = 0; y < p; ++y) {
     const float* r = right[y0 + y];
     const uchar* rv = right_valid[y0 + y];
-    const float* t = T + y * p;
-    const float* g = G + y * p;
-    const uchar* m = M + y * p;
+    const float* t = patch.tmpl + y * patch.stride;
+    const float* g = patch.grad + y * patch.stride;
+    const uchar* m = M + y * mask_stride;
     for (int i = 0; i < p; ++i) {
       const int xr = span.base + i;
       if (!m[i] || xr < 0 || xr + (two_taps ? 1 : 0) >= w) continue;
@@ -171,20 +192,51 @@ inline void sumsMasked(const cv::Mat1f& right, const cv::Mat1b& right_valid, int
   out = {n, sd, sdd, sgd, sg, sgg};
 }
 
-/// The two all-valid inner loops, as one swappable set: a scalar reference for
+/// Fusion of one patch: adds posterior * spatial weight * disparity, the
+/// weight and the evidence to the p x p pixels at `num`, `den`, `conf` (rows
+/// `stride` floats apart). `spatial` is the p x p Gaussian, row-major.
+inline void accumulatePatch(int p, const float* spatial, float posterior, float disparity,
+                            float evidence, float* num, float* den, float* conf, size_t stride) {
+  for (int y = 0; y < p; ++y) {
+    const float* g = spatial + y * p;
+    float* nr = num + y * stride;
+    float* dr = den + y * stride;
+    float* cr = conf + y * stride;
+    for (int x = 0; x < p; ++x) {
+      const float w = posterior * g[x];
+      nr[x] += w * disparity;
+      dr[x] += w;
+      cr[x] += evidence;
+    }
+  }
+}
+
+/// The unmasked inner loops, as one swappable set: a scalar reference for
 /// any patch size, and fixed-size versions (lane accumulators the compiler
 /// vectorises) built once with the baseline instruction set and once for AVX2.
 /// They take raw row pointers so the AVX2 translation unit calls no inline
 /// function shared with other units (a shared inline compiled for AVX2 could
 /// be picked by the linker for every caller).
+/// The fixed-size sums_clipped reads columns base .. base + p of every row,
+/// also outside `cols` (and multiplies them by 0): those must be readable and
+/// finite, which the pyramid's padded right rows (kRightPadding) guarantee.
 struct KernelSet {
   const char* name;
-  void (*sums_all_valid)(const float* rows, size_t stride, int p, SampleSpan span, const float* T,
-                         const float* G, bool want_cost, float* row_buf, ResidualSums& out);
+  void (*sums_all_valid)(const float* rows, size_t stride, int p, SampleSpan span,
+                         const PatchView& patch, ResidualSums& out);
+  void (*sums_clipped)(const float* rows, size_t stride, int p, SampleSpan span, ColumnRange cols,
+                       const PatchView& patch, ResidualSums& out);
   void (*window_costs)(const float* rows, size_t stride, int p, int base_lo, float frac, int samples,
-                       int step, const float* T, bool mean_normalization, float* row_buf,
+                       int step, const PatchView& patch, bool mean_normalization, float* row_buf,
                        float* sum, float* sum_sq, float* costs);
+  void (*accumulate_patch)(int p, const float* spatial, float posterior, float disparity,
+                           float evidence, float* num, float* den, float* conf, size_t stride);
 };
+
+/// Columns every right-image row of the pyramid has readable (and zero) on
+/// each side, so fixed-size kernels may read a whole patch row at a match
+/// past the image edge: one patch (p <= 32) plus the second tap.
+constexpr int kRightPadding = 40;
 
 enum class KernelIsa { Scalar, Baseline, Avx2 };
 

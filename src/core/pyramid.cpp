@@ -1,43 +1,53 @@
 #include "pyramid.hpp"
 
 #include <algorithm>
+#include <cstring>
 
 namespace bdis {
 namespace detail {
 namespace {
 
-// Rec. 601 luma in 8.8 fixed point (within 1 grey level of cv::cvtColor).
-inline float bgrToGrey(const uchar* bgr) {
-  return static_cast<float>((29 * bgr[0] + 150 * bgr[1] + 77 * bgr[2] + 128) >> 8);
-}
-
 // Grey level 0 and validity of one 8-bit image. A pixel is outside the
 // rectified view when every channel is 0; judged on the input, not on the
-// grey value, so a very dark but real pixel stays valid.
-void toGrey(const cv::Mat& src, cv::Mat1f& grey, cv::Mat1b& valid) {
-  const int channels = src.channels();
-  for (int y = 0; y < src.rows; ++y) {
-    const uchar* s = src.ptr<uchar>(y);
-    float* g = grey[y];
-    uchar* v = valid[y];
-    if (channels == 1) {
-      for (int x = 0; x < src.cols; ++x) {
+// grey value, so a very dark but real pixel stays valid. Colour goes through
+// planes (`planes`, 3 sized by the caller) so that both loops vectorise.
+BDIS_ROW_LOOP
+void toGrey(const cv::Mat& src, cv::Mat* planes, cv::Mat1f& grey, cv::Mat1b& valid) {
+  const int w = src.cols;  // not re-read in loops whose byte stores might alias it
+  if (src.channels() == 1) {
+    for (int y = 0; y < src.rows; ++y) {
+      const uchar* s = src.ptr<uchar>(y);
+      float* g = grey[y];
+      uchar* v = valid[y];
+      for (int x = 0; x < w; ++x) {
         g[x] = s[x];
         v[x] = s[x] != 0;
       }
-    } else {
-      for (int x = 0; x < src.cols; ++x, s += 3) {
-        g[x] = bgrToGrey(s);
-        v[x] = (s[0] | s[1] | s[2]) != 0;
-      }
+    }
+    return;
+  }
+  cv::split(src, planes);
+  for (int y = 0; y < src.rows; ++y) {
+    const uchar* b = planes[0].ptr<uchar>(y);
+    const uchar* gr = planes[1].ptr<uchar>(y);
+    const uchar* r = planes[2].ptr<uchar>(y);
+    float* g = grey[y];
+    uchar* v = valid[y];
+    for (int x = 0; x < w; ++x) {
+      // Rec. 601 luma in 8.8 fixed point (within 1 grey level of cv::cvtColor).
+      const uint16_t luma = static_cast<uint16_t>(29 * b[x] + 150 * gr[x] + 77 * r[x] + 128);
+      g[x] = static_cast<float>(luma >> 8);
+      v[x] = (b[x] | gr[x] | r[x]) != 0;
     }
   }
 }
 
 // 2x2 box average; a coarse pixel is valid only when all four fine ones are,
 // so black borders never bleed into darker-than-real tissue values.
+BDIS_ROW_LOOP
 void downsample(const cv::Mat1f& fine, const cv::Mat1b& fine_valid, cv::Mat1f& coarse,
                 cv::Mat1b& coarse_valid) {
+  const int w = coarse.cols;
   for (int y = 0; y < coarse.rows; ++y) {
     const float* f0 = fine[2 * y];
     const float* f1 = fine[2 * y + 1];
@@ -45,7 +55,7 @@ void downsample(const cv::Mat1f& fine, const cv::Mat1b& fine_valid, cv::Mat1f& c
     const uchar* v1 = fine_valid[2 * y + 1];
     float* c = coarse[y];
     uchar* cv = coarse_valid[y];
-    for (int x = 0; x < coarse.cols; ++x) {
+    for (int x = 0; x < w; ++x) {
       const int a = 2 * x;
       c[x] = 0.25f * (f0[a] + f0[a + 1] + f1[a] + f1[a + 1]);
       cv[x] = v0[a] & v0[a + 1] & v1[a] & v1[a + 1];
@@ -55,12 +65,20 @@ void downsample(const cv::Mat1f& fine, const cv::Mat1b& fine_valid, cv::Mat1f& c
 
 // Central difference where both neighbours are valid, one-sided where only
 // one is, 0 where neither is: invalid pixels never enter a gradient.
+BDIS_ROW_LOOP
 void horizontalGradient(const cv::Mat1f& img, const cv::Mat1b& valid, cv::Mat1f& gx) {
   const int w = img.cols;
   for (int y = 0; y < img.rows; ++y) {
     const float* p = img[y];
     const uchar* v = valid[y];
     float* g = gx[y];
+    if (w > 1 && std::memchr(v, 0, static_cast<size_t>(w)) == nullptr) {
+      // A row without invalid pixels (the usual case): a loop that vectorises.
+      g[0] = p[1] - p[0];
+      for (int x = 1; x + 1 < w; ++x) g[x] = 0.5f * (p[x + 1] - p[x - 1]);
+      g[w - 1] = p[w - 1] - p[w - 2];
+      continue;
+    }
     for (int x = 0; x < w; ++x) {
       const bool has_left = x > 0 && v[x - 1];
       const bool has_right = x + 1 < w && v[x + 1];
@@ -79,39 +97,91 @@ void horizontalGradient(const cv::Mat1f& img, const cv::Mat1b& valid, cv::Mat1f&
   }
 }
 
-template <typename Src, typename Dst, typename F>
-void integral(const cv::Mat_<Src>& src, cv::Mat_<Dst>& sum, F value) {
-  std::fill(sum[0], sum[0] + sum.cols, Dst(0));
+/// dst = src flipped left-right (dst already sized).
+template <typename T>
+BDIS_ROW_LOOP void mirror(const cv::Mat_<T>& src, cv::Mat_<T>& dst) {
+  const int w = src.cols;
   for (int y = 0; y < src.rows; ++y) {
-    const Src* s = src[y];
-    const Dst* above = sum[y];
-    Dst* out = sum[y + 1];
-    out[0] = 0;
-    Dst row = 0;
-    for (int x = 0; x < src.cols; ++x) {
-      row += value(s[x]);
+    const T* s = src[y];
+    T* d = dst[y];
+    for (int x = 0; x < w; ++x) d[x] = s[w - 1 - x];
+  }
+}
+
+/// Integral images of gx and gx^2 in one pass.
+void gradientIntegrals(const cv::Mat1f& gx, cv::Mat1d& sum, cv::Mat1d& sq_sum) {
+  const int w = gx.cols;
+  std::fill(sum[0], sum[0] + w + 1, 0.0);
+  std::fill(sq_sum[0], sq_sum[0] + w + 1, 0.0);
+  for (int y = 0; y < gx.rows; ++y) {
+    const float* g = gx[y];
+    const double *above = sum[y], *above_sq = sq_sum[y];
+    double *out = sum[y + 1], *out_sq = sq_sum[y + 1];
+    out[0] = out_sq[0] = 0.0;
+    double row = 0.0, row_sq = 0.0;
+    for (int x = 0; x < w; ++x) {
+      const double v = g[x];
+      row += v;
+      row_sq += v * v;
       out[x + 1] = above[x + 1] + row;
+      out_sq[x + 1] = above_sq[x + 1] + row_sq;
     }
   }
 }
 
-void buildIntegrals(PyramidLevel& l) {
-  integral(l.left_gx, l.gx_sum, [](float v) { return double(v); });
-  integral(l.left_gx, l.gx_sq_sum, [](float v) { return double(v) * v; });
-  integral(l.left_valid, l.left_invalid, [](uchar v) { return int(v == 0); });
-  integral(l.right_valid, l.right_invalid, [](uchar v) { return int(v == 0); });
+/// Integral image of the invalid pixels; all zeros, without the running
+/// sums, when every pixel is valid (rectified views usually have no border;
+/// `all_zero` remembers that, so a stream of such frames writes it once).
+/// Returns whether every pixel is valid.
+bool invalidCountIntegral(const cv::Mat1b& valid, cv::Mat1i& sum, bool& all_zero) {
+  if (cv::countNonZero(valid) == valid.rows * valid.cols) {
+    if (!all_zero) {
+      for (int y = 0; y < sum.rows; ++y) std::fill(sum[y], sum[y] + sum.cols, 0);
+      all_zero = true;
+    }
+    return true;
+  }
+  all_zero = false;
+  const int w = valid.cols;
+  std::fill(sum[0], sum[0] + w + 1, 0);
+  for (int y = 0; y < valid.rows; ++y) {
+    const uchar* v = valid[y];
+    const int* above = sum[y];
+    int* out = sum[y + 1];
+    out[0] = 0;
+    int row = 0;
+    for (int x = 0; x < w; ++x) {
+      row += v[x] == 0;
+      out[x + 1] = above[x + 1] + row;
+    }
+  }
+  return false;
+}
+
+void buildGradientAndIntegrals(PyramidLevel& l) {
+  horizontalGradient(l.left, l.left_valid, l.left_gx);
+  gradientIntegrals(l.left_gx, l.gx_sum, l.gx_sq_sum);
+  invalidCountIntegral(l.left_valid, l.left_invalid, l.left_invalid_all_zero);
+  l.right_all_valid = invalidCountIntegral(l.right_valid, l.right_invalid, l.right_invalid_all_zero);
 }
 
 void allocate(PyramidLevel& l, int w, int h) {
   l.width = w;
   l.height = h;
   l.left.create(h, w);
-  l.right.create(h, w);
+  if (l.right_padded.rows != h || l.right_padded.cols != w + 2 * kRightPadding) {
+    l.right_padded.create(h, w + 2 * kRightPadding);
+    l.right_padded.setTo(0.f);  // only the padding stays 0; the view is rewritten per frame
+    l.right = l.right_padded.colRange(kRightPadding, kRightPadding + w);
+  }
   l.left_gx.create(h, w);
   l.left_valid.create(h, w);
   l.right_valid.create(h, w);
   l.gx_sum.create(h + 1, w + 1);
   l.gx_sq_sum.create(h + 1, w + 1);
+  if (l.left_invalid.rows != h + 1 || l.left_invalid.cols != w + 1) {
+    l.left_invalid_all_zero = l.right_invalid_all_zero = false;  // new buffers
+  }
   l.left_invalid.create(h + 1, w + 1);
   l.right_invalid.create(h + 1, w + 1);
 }
@@ -128,24 +198,40 @@ int levelsThatFit(int width, int height, int patch_size, int wanted_levels) {
 
 void StereoPyramid::build(const cv::Mat& left, const cv::Mat& right, int num_levels,
                           int first_searched_level) {
+  size_ = left.size();
   levels_.resize(static_cast<size_t>(num_levels));  // no-op once sized
   for (int s = 0; s < num_levels; ++s) {
     // Mat::create is a no-op when size and type are unchanged.
     allocate(levels_[s], left.cols >> s, left.rows >> s);
   }
   PyramidLevel& base = levels_[0];
-  toGrey(left, base.left, base.left_valid);
-  toGrey(right, base.right, base.right_valid);
+  if (left.channels() == 3) {
+    for (cv::Mat& plane : colour_planes_) plane.create(left.size(), CV_8UC1);
+  }
+  toGrey(left, colour_planes_, base.left, base.left_valid);
+  toGrey(right, colour_planes_, base.right, base.right_valid);
   for (int s = 1; s < num_levels; ++s) {
     const PyramidLevel& fine = levels_[s - 1];
     PyramidLevel& coarse = levels_[s];
     downsample(fine.left, fine.left_valid, coarse.left, coarse.left_valid);
     downsample(fine.right, fine.right_valid, coarse.right, coarse.right_valid);
   }
+  for (int s = first_searched_level; s < num_levels; ++s) buildGradientAndIntegrals(levels_[s]);
+}
+
+void StereoPyramid::buildMirrored(const StereoPyramid& src, int num_levels,
+                                  int first_searched_level) {
+  size_ = src.size_;
+  levels_.resize(static_cast<size_t>(num_levels));
   for (int s = first_searched_level; s < num_levels; ++s) {
+    const PyramidLevel& from = src.levels_[s];
     PyramidLevel& l = levels_[s];
-    horizontalGradient(l.left, l.left_valid, l.left_gx);
-    buildIntegrals(l);
+    allocate(l, from.width, from.height);
+    mirror(from.right, l.left);
+    mirror(from.left, l.right);
+    mirror(from.right_valid, l.left_valid);
+    mirror(from.left_valid, l.right_valid);
+    buildGradientAndIntegrals(l);
   }
 }
 

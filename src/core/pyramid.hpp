@@ -7,6 +7,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "patch_kernels.hpp"  // kRightPadding
+
 namespace bdis {
 namespace detail {
 
@@ -15,7 +17,8 @@ struct PyramidLevel {
   int width = 0;
   int height = 0;
   cv::Mat1f left;        ///< grey, 0..255
-  cv::Mat1f right;
+  cv::Mat1f right;       ///< a view into right_padded: kRightPadding zero columns each side
+  cv::Mat1f right_padded;
   cv::Mat1f left_gx;     ///< horizontal gradient of left, from valid neighbours only
   cv::Mat1b left_valid;  ///< 1 where the pixel lies inside the rectified view
   cv::Mat1b right_valid;
@@ -24,6 +27,8 @@ struct PyramidLevel {
   cv::Mat1d gx_sq_sum;      ///< sum of gx^2 (the 1-D Hessian)
   cv::Mat1i left_invalid;   ///< count of invalid left pixels
   cv::Mat1i right_invalid;  ///< count of invalid right pixels
+  bool right_all_valid = false;  ///< no invalid right pixel: right_invalid is all 0
+  bool left_invalid_all_zero = false, right_invalid_all_zero = false;  ///< integrals known to be 0
 };
 
 /// Sum of an integral image over [x0, x1) x [y0, y1).
@@ -37,11 +42,18 @@ class StereoPyramid {
   /// Builds levels 0..num_levels-1 from 8-bit mono or BGR inputs of equal size;
   /// gradients and integral images only from `first_searched_level` on.
   void build(const cv::Mat& left, const cv::Mat& right, int num_levels, int first_searched_level);
+  /// The pyramid of the mirrored pair (the right image, flipped, as the left
+  /// one and vice versa) from `src`'s levels, without converting or
+  /// downsampling again; only levels first_searched_level..num_levels-1.
+  void buildMirrored(const StereoPyramid& src, int num_levels, int first_searched_level);
   const PyramidLevel& level(int s) const { return levels_[s]; }
   int numLevels() const { return static_cast<int>(levels_.size()); }
+  cv::Size size() const { return size_; }  ///< of the input (level 0)
 
  private:
   std::vector<PyramidLevel> levels_;
+  cv::Size size_;
+  cv::Mat colour_planes_[3];  ///< B, G, R of the input being converted
 };
 
 /// Largest level count (>= 1) whose coarsest level still holds one patch of `patch_size`.

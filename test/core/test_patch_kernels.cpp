@@ -59,7 +59,8 @@ TEST_P(WindowCosts, SharedRowsGiveThePerSampleCosts) {
   std::vector<float> sum(samples), sum_sq(samples), costs(samples);
   for (double u : {3.0, 12.25, 17.7, 30.999}) {
     const SampleSpan lo = sampleSpan(x0, static_cast<float>(u + c.half_width * c.step));
-    windowCostsAllValid(right[y0], right.step1(), c.p, lo.base, lo.frac, samples, c.step, T.data(),
+    windowCostsAllValid(right[y0], right.step1(), c.p, lo.base, lo.frac, samples, c.step,
+                        PatchView{T.data(), nullptr, static_cast<size_t>(c.p)},
                         c.mean_normalization, row.data(), sum.data(), sum_sq.data(),
                         costs.data());
     for (int j = 0; j < samples; ++j) {
@@ -81,14 +82,15 @@ TEST(PatchKernels, AllValidSumsMatchTheMaskedPathWhenEverythingIsValid) {
   cv::Mat1f right(20, 120);
   rng.fill(right, cv::RNG::UNIFORM, 0.f, 255.f);
   cv::Mat1b valid(right.size(), uchar(1));
-  std::vector<float> T(p * p), G(p * p), row(p + 2);
+  std::vector<float> T(p * p), G(p * p);
   std::vector<uchar> M(p * p, 1);
   for (float& t : T) t = rng.uniform(0.f, 255.f);
   for (float& g : G) g = rng.uniform(-20.f, 20.f);
+  const PatchView view{T.data(), G.data(), p};
   const SampleSpan span = sampleSpan(x0, 9.37f);
   ResidualSums fast, masked;
-  sumsAllValid(right[y0], right.step1(), p, span, T.data(), G.data(), true, row.data(), fast);
-  sumsMasked(right, valid, y0, p, span, T.data(), G.data(), M.data(), masked);
+  sumsAllValid(right[y0], right.step1(), p, span, view, fast);
+  sumsMasked(right, valid, y0, p, span, view, M.data(), p, masked);
   EXPECT_EQ(fast.count, masked.count);
   EXPECT_NEAR(fast.diff, masked.diff, 1e-3 * std::fabs(masked.diff) + 1e-2);
   EXPECT_NEAR(fast.diff_sq, masked.diff_sq, 1e-4 * masked.diff_sq);
@@ -119,12 +121,13 @@ TEST(PatchKernels, EveryIsaAgreesWithTheReference) {
       for (double u : {2.0, 11.3, 25.75}) {
         const SampleSpan span = sampleSpan(x0, static_cast<float>(u));
         ResidualSums r;
-        k.sums_all_valid(right[y0], right.step1(), p, span, T.data(), G.data(), true, row.data(), r);
+        const PatchView view{T.data(), G.data(), static_cast<size_t>(p)};
+        k.sums_all_valid(right[y0], right.step1(), p, span, view, r);
         const double want = referenceCost(right, T, x0, y0, p, u, false);
         EXPECT_EQ(r.count, p * p) << k.name << " p=" << p;
         EXPECT_NEAR(r.diff_sq / r.count, want, 2e-4 * want) << k.name << " p=" << p << " u=" << u;
         const SampleSpan lo = sampleSpan(x0, static_cast<float>(u + n * step));
-        k.window_costs(right[y0], right.step1(), p, lo.base, lo.frac, samples, step, T.data(), true,
+        k.window_costs(right[y0], right.step1(), p, lo.base, lo.frac, samples, step, view, true,
                        row.data(), sum.data(), sum_sq.data(), costs.data());
         for (int j = 0; j < samples; ++j) {
           const double wj = referenceCost(right, T, x0, y0, p, u + (j - n) * step, true);
@@ -142,32 +145,82 @@ TEST(PatchKernels, EveryIsaAgreesWithTheReference) {
   EXPECT_STREQ(kernelsFor(10, KernelIsa::Baseline).name, "scalar");
 }
 
-TEST(PatchKernels, ClippedSumsMatchTheMaskedPathAtTheImageEdges) {
-  cv::RNG rng(9);
-  const int p = 8, y0 = 2, width = 60;
-  cv::Mat1f right(16, width);
-  rng.fill(right, cv::RNG::UNIFORM, 0.f, 255.f);
-  const cv::Mat1b valid(right.size(), uchar(1));
-  std::vector<float> T(p * p), G(p * p);
-  std::vector<uchar> M(p * p, 1);
-  for (float& t : T) t = rng.uniform(0.f, 255.f);
-  for (float& g : G) g = rng.uniform(-20.f, 20.f);
-  int partial = 0;
-  for (int x0 : {0, 3, 50, 52, 55}) {
-    for (float u : {-6.5f, -2.f, 0.f, 0.25f, 4.f, 7.75f, 12.f}) {
-      const SampleSpan span = sampleSpan(x0, u);
-      ResidualSums clipped, masked;
-      sumsClipped(right[y0], right.step1(), p, span, columnsInside(width, p, span), T.data(),
-                  G.data(), clipped);
-      sumsMasked(right, valid, y0, p, span, T.data(), G.data(), M.data(), masked);
-      EXPECT_EQ(clipped.count, masked.count) << "x0=" << x0 << " u=" << u;
-      EXPECT_NEAR(clipped.diff_sq, masked.diff_sq, 1e-4 * masked.diff_sq + 1e-3);
-      EXPECT_NEAR(clipped.g_diff, masked.g_diff, 1e-3 * std::fabs(masked.g_diff) + 1e-1);
-      EXPECT_NEAR(clipped.g_sq, masked.g_sq, 1e-4 * masked.g_sq + 1e-3);
-      if (masked.count > 0 && masked.count < p * p) ++partial;
+// Every kernel set's fusion of a patch adds what the scalar loop adds (up to
+// the rounding of a fused multiply-add), on rows of a wider image.
+TEST(PatchKernels, EveryIsaAccumulatesAPatchLikeTheScalarLoop) {
+  cv::RNG rng(13);
+  int sets_checked = 0;
+  for (KernelIsa isa : {KernelIsa::Baseline, KernelIsa::Avx2}) {
+    if (!kernelIsaAvailable(isa)) continue;
+    for (int p : {8, 16, 32, 10}) {
+      const KernelSet& k = kernelsFor(p, isa);
+      ++sets_checked;
+      std::vector<float> spatial(static_cast<size_t>(p * p));
+      for (float& g : spatial) g = rng.uniform(0.f, 1.f);
+      cv::Mat1f sums[2][3];
+      for (cv::Mat1f& m : sums[0]) {
+        m.create(p + 3, p + 7);
+        rng.fill(m, cv::RNG::UNIFORM, 0.f, 10.f);
+      }
+      for (int i = 0; i < 3; ++i) sums[1][i] = sums[0][i].clone();
+      for (int patch = 0; patch < 3; ++patch) {
+        const float post = rng.uniform(0.f, 1.f), d = rng.uniform(0.f, 40.f), ev = rng.uniform(0.f, 1.f);
+        const int x0 = patch + 1, y0 = patch;
+        k.accumulate_patch(p, spatial.data(), post, d, ev, &sums[0][0](y0, x0), &sums[0][1](y0, x0),
+                           &sums[0][2](y0, x0), sums[0][0].step1());
+        accumulatePatch(p, spatial.data(), post, d, ev, &sums[1][0](y0, x0), &sums[1][1](y0, x0),
+                        &sums[1][2](y0, x0), sums[1][0].step1());
+      }
+      for (int i = 0; i < 3; ++i) {
+        EXPECT_LE(cv::norm(sums[0][i], sums[1][i], cv::NORM_INF), 1e-6 * cv::norm(sums[1][i], cv::NORM_INF))
+            << k.name << " p=" << p;
+      }
     }
   }
-  EXPECT_GE(partial, 10);  // the cases do reach past the edges
+  EXPECT_GE(sets_checked, 4);
+}
+
+// Every kernel set's clipped sums (the fixed-size ones read whole rows from
+// the padding and mask them) against the per-pixel masked path, at matches
+// reaching past either image edge.
+TEST(PatchKernels, ClippedSumsMatchTheMaskedPathAtTheImageEdges) {
+  cv::RNG rng(9);
+  const int y0 = 2, width = 70;
+  cv::Mat1f padded(40, width + 2 * kRightPadding, 0.f);
+  cv::Mat1f right = padded.colRange(kRightPadding, kRightPadding + width);
+  rng.fill(right, cv::RNG::UNIFORM, 0.f, 255.f);
+  const cv::Mat1b valid(right.size(), uchar(1));
+  int partial = 0, sets_checked = 0;
+  for (KernelIsa isa : {KernelIsa::Scalar, KernelIsa::Baseline, KernelIsa::Avx2}) {
+    if (!kernelIsaAvailable(isa)) continue;
+    for (int p : {8, 16, 32, 10}) {
+      const KernelSet& k = kernelsFor(p, isa);
+      ++sets_checked;
+      std::vector<float> T(static_cast<size_t>(p * p)), G(T.size());
+      std::vector<uchar> M(T.size(), 1);
+      for (float& t : T) t = rng.uniform(0.f, 255.f);
+      for (float& g : G) g = rng.uniform(-20.f, 20.f);
+      const PatchView view{T.data(), G.data(), static_cast<size_t>(p)};
+      for (int x0 : {0, 3, width - p - 5, width - p - 2, width - p}) {
+        for (float u : {-6.5f, -2.f, 0.f, 0.25f, 4.f, 7.75f, 12.f, static_cast<float>(p) + 3.5f}) {
+          const SampleSpan span = sampleSpan(x0, u);
+          ResidualSums clipped, masked;
+          k.sums_clipped(right[y0], right.step1(), p, span, columnsInside(width, p, span), view,
+                         clipped);
+          sumsMasked(right, valid, y0, p, span, view, M.data(), static_cast<size_t>(p), masked);
+          EXPECT_EQ(clipped.count, masked.count) << k.name << " p=" << p << " x0=" << x0 << " u=" << u;
+          EXPECT_NEAR(clipped.diff, masked.diff, 1e-3 * std::fabs(masked.diff) + 1e-1);
+          EXPECT_NEAR(clipped.diff_sq, masked.diff_sq, 1e-4 * masked.diff_sq + 1e-3);
+          EXPECT_NEAR(clipped.g_diff, masked.g_diff, 1e-3 * std::fabs(masked.g_diff) + 1e-1);
+          EXPECT_NEAR(clipped.g, masked.g, 1e-3 * std::fabs(masked.g) + 1e-2);
+          EXPECT_NEAR(clipped.g_sq, masked.g_sq, 1e-4 * masked.g_sq + 1e-3);
+          if (masked.count > 0 && masked.count < p * p) ++partial;
+        }
+      }
+    }
+  }
+  EXPECT_GE(sets_checked, 8);
+  EXPECT_GE(partial, 40);  // the cases do reach past the edges
 }
 
 }  // namespace

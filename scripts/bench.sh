@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# The benchmark command: builds the package if needed, then prints one table
+# for this machine (CPU name from /proc/cpuinfo):
+#  - per synthetic sequence of the shared data folder, the median over all its
+#    frames (each timed several times) of the per-frame compute time of bdis
+#    fast / balanced / accurate and OpenCV DIS fast, in the same run, pinned to
+#    one core, single-threaded, and the ratio to DIS fast;
+#  - image-size scaling on generated scenes (320x240 .. 1920x1080), ms and
+#    ms per megapixel, balanced and DIS fast;
+#  - instructions per frame (valgrind callgrind, one compute of the first pair
+#    of synthetic_colon_diffuse, after a warm-up compute) for balanced and DIS
+#    fast: a measure other load on the machine does not move.
+# Times are thread CPU time, so other processes on the core count little;
+# compare them only as ratios within one run.
+#
+# usage: scripts/bench.sh [--rounds N] [--no-scaling] [--set NAME=VALUE ...]
+#   BDIS_BENCH_CORE  core to pin to (default 1, or 0 on a one-core machine)
+#   BDIS_WS_DIR      workspace (default _ws), BDIS_DATA_DIR data folder
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
+
+BIN_DIR="$WS_DIR/devel/lib/bdis_stereo"
+if [ ! -x "$BIN_DIR/bdis_bench" ]; then
+  install_dependencies
+  build_package
+fi
+[ -x "$BIN_DIR/bdis_bench" ] || { log "bdis_bench was not built (is libbenchmark-dev installed?)"; exit 1; }
+
+core="${BDIS_BENCH_CORE:-$([ "$(nproc)" -gt 1 ] && echo 1 || echo 0)}"
+cpu="$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//')"
+echo "CPU: ${cpu:-unknown} ($(nproc) cores online); pinned to core $core with taskset, single-threaded"
+echo
+
+taskset -c "$core" "$BIN_DIR/bdis_bench" --table "$@"
+
+if ! command -v valgrind >/dev/null 2>&1; then
+  echo "| instructions (callgrind) | valgrind not installed | | | | | |"
+  exit 0
+fi
+instructions() {  # method -> instructions of one compute
+  local out
+  out="$(mktemp)"
+  valgrind --tool=callgrind --instr-atstart=no --callgrind-out-file="$out" \
+    "$BIN_DIR/bdis_bench" --one-frame "$1" "${@:2}" >/dev/null 2>&1
+  awk '/^totals:/ {print $2}' "$out"
+  rm -f "$out"
+}
+# --set changes bdis_balanced here too.
+set_args=()
+while [ $# -gt 0 ]; do
+  [ "$1" = "--set" ] && [ $# -gt 1 ] && set_args+=("--set" "$2") && shift
+  shift
+done
+bdis="$(instructions bdis_balanced "${set_args[@]}")"
+dis="$(instructions dis_fast)"
+awk -v b="$bdis" -v d="$dis" 'BEGIN {
+  mpix = 640 * 480 / 1e6
+  printf "| instructions (callgrind), first pair of synthetic_colon_diffuse | bdis balanced | 640x480 | 1 | %.1f M | %.1f M | %.2f |\n", b / 1e6, b / 1e6 / mpix, b / d
+  printf "| instructions (callgrind), first pair of synthetic_colon_diffuse | DIS fast | 640x480 | 1 | %.1f M | %.1f M | 1.00 |\n", d / 1e6, d / 1e6 / mpix
+}'
