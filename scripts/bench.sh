@@ -9,20 +9,30 @@
 #    ms per megapixel, balanced and DIS fast;
 #  - instructions per frame (valgrind callgrind, one compute of the first pair
 #    of synthetic_colon_diffuse, after a warm-up compute) for balanced and DIS
-#    fast: a measure other load on the machine does not move.
+#    fast: a measure other load on the machine does not move;
+#  - the node under load (scripts/bench_node.sh): the embedded sample as a bag
+#    at 60 Hz through the nodelet in a manager on one core, and through
+#    stereo_image_proc (StereoBM, SGBM) in the same run: share of frames
+#    published, output rate, latency p50 / p95 / p99.
 # Times are thread CPU time, so other processes on the core count little;
 # compare them only as ratios within one run.
 #
-# usage: scripts/bench.sh [--rounds N] [--no-scaling] [--set NAME=VALUE ...]
+# usage: scripts/bench.sh [--rounds N] [--no-scaling] [--no-node] [--set NAME=VALUE ...]
 #   BDIS_BENCH_CORE  core to pin to (default 1, or 0 on a one-core machine)
 #   BDIS_WS_DIR      workspace (default _ws), BDIS_DATA_DIR data folder
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
 BIN_DIR="$WS_DIR/devel/lib/bdis_stereo"
-if [ ! -x "$BIN_DIR/bdis_bench" ]; then
-  install_dependencies
+install_dependencies
+if [ ! -x "$BIN_DIR/bdis_bench" ] || [ ! -x "$BIN_DIR/bdis_node_bench" ]; then
   build_package
 fi
+run_node=1
+args=()
+for a in "$@"; do
+  if [ "$a" = "--no-node" ]; then run_node=0; else args+=("$a"); fi
+done
+set -- "${args[@]+"${args[@]}"}"
 [ -x "$BIN_DIR/bdis_bench" ] || { log "bdis_bench was not built (is libbenchmark-dev installed?)"; exit 1; }
 
 core="${BDIS_BENCH_CORE:-$([ "$(nproc)" -gt 1 ] && echo 1 || echo 0)}"
@@ -32,8 +42,25 @@ echo
 
 taskset -c "$core" "$BIN_DIR/bdis_bench" --table "$@"
 
+node_rows() {
+  local json
+  json="$(mktemp)"
+  BDIS_SKIP_BUILD=1 "$REPO_DIR/scripts/bench_node.sh" --json "$json" >/dev/null || true
+  "$PYTHON_EXE" - "$json" <<'EOF'
+import json, sys
+for line in open(sys.argv[1]):
+    r = json.loads(line)
+    print("| node, %g Hz bag, node on one core: published at rate; latency p50 / p95 / p99 | %s | 640x480 "
+          "| %d sent | %.1f %% at %.1f Hz | %.1f / %.1f / %.1f ms | |"
+          % (r["rate_hz"], r["label"], r["frames_sent"], 100.0 * r["frames_out"] / max(1, r["frames_sent"]),
+             r["output_rate_hz"], r["latency_ms_p50"], r["latency_ms_p95"], r["latency_ms_p99"]))
+EOF
+  rm -f "$json"
+}
+
 if ! command -v valgrind >/dev/null 2>&1; then
   echo "| instructions (callgrind) | valgrind not installed | | | | | |"
+  [ "$run_node" = 1 ] && node_rows
   exit 0
 fi
 instructions() {  # method -> instructions of one compute
@@ -57,3 +84,4 @@ awk -v b="$bdis" -v d="$dis" 'BEGIN {
   printf "| instructions (callgrind), first pair of synthetic_colon_diffuse | bdis balanced | 640x480 | 1 | %.1f M | %.1f M | %.2f |\n", b / 1e6, b / 1e6 / mpix, b / d
   printf "| instructions (callgrind), first pair of synthetic_colon_diffuse | DIS fast | 640x480 | 1 | %.1f M | %.1f M | 1.00 |\n", d / 1e6, d / 1e6 / mpix
 }'
+if [ "$run_node" = 1 ]; then node_rows; fi

@@ -26,8 +26,8 @@ DEBIAN_PACKAGES=(
   python3-std-msgs python3-tf2-msgs python3-diagnostic-msgs python3-rosgraph-msgs
   # the demo (scripts/bdis_demo) and its rviz test under a virtual display
   python3-catkin rviz xvfb imagemagick libgl1-mesa-dri
-  # the node benchmark (scripts/bench_node.sh): bag reading, and the ROS reference
-  librosbag-storage-dev libstereo-image-proc-dev
+  # benchmarks (scripts/bench.sh, bench_node.sh): bag reading, the ROS reference, callgrind
+  librosbag-storage-dev libstereo-image-proc-dev valgrind
 )
 
 sudo_if_needed() {
