@@ -27,11 +27,20 @@ export ROS_IP=127.0.0.1
 unset ROS_HOSTNAME
 
 work="$(mktemp -d /tmp/bdis_soak.XXXXXX)"
-pids=()
+pids=()     # started in the background, stopped in reverse order on exit
+loader=""
 cleanup() {
+  set +e  # a process that is already gone must not stop the clean-up
+  [ -n "$loader" ] && kill -INT "$loader" 2>/dev/null
   for ((i = ${#pids[@]} - 1; i >= 0; i--)); do kill -INT "${pids[i]}" 2>/dev/null; done
-  sleep 1
+  for _ in $(seq 50); do  # roscore stops its master and rosout on SIGINT: give it time
+    alive=0
+    for pid in "${pids[@]}" $loader; do kill -0 "$pid" 2>/dev/null && alive=1; done
+    [ "$alive" = 0 ] && break
+    sleep 0.2
+  done
   for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null; done
+  [ -n "$loader" ] && kill -KILL "$loader" 2>/dev/null
   [ "${BDIS_KEEP_WORK:-}" = 1 ] && log "kept $work" || rm -rf "$work"
 }
 trap cleanup EXIT
@@ -57,7 +66,6 @@ pids+=("$manager")
 # Loaded = its dynamic_reconfigure topics are advertised (the manager's list
 # service needs nodelet's Python messages, which Debian does not package).
 nodelet_loaded() { rostopic list 2>/dev/null | grep -qx /stereo/bdis_stereo/parameter_descriptions; }
-loader=""
 load_nodelet() {
   rosrun nodelet nodelet load bdis_stereo/BdisStereoNodelet /stereo/manager __name:=bdis_stereo \
       __ns:=/stereo >>"$work/loader.log" 2>&1 &
