@@ -47,6 +47,14 @@ else
   log "rostest is not installed: skipping the ROS tests (they fail under CI=true)"
 fi
 
+# The same tests built with ASan + UBSan (results in asan/). BDIS_SANITIZE=0
+# skips them.
+if [ "${BDIS_SANITIZE:-1}" != "0" ]; then
+  "$REPO_DIR/scripts/test_sanitizers.sh" "$RESULTS_DIR" || status=1
+else
+  log "BDIS_SANITIZE=0: skipping the sanitizer suite"
+fi
+
 # Summary over every result file.
 "$PYTHON_EXE" "$REPO_DIR/scripts/summarize_results.py" "$RESULTS_DIR" || status=1
 exit $status
