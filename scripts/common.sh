@@ -24,6 +24,8 @@ DEBIAN_PACKAGES=(
   # rostests: the test nodes are Python
   librostest-dev python3-rostest python3-sensor-msgs python3-stereo-msgs python3-geometry-msgs
   python3-std-msgs python3-tf2-msgs python3-diagnostic-msgs python3-rosgraph-msgs
+  # fuzzer (scripts/fuzz.sh): clang and its libFuzzer runtime (only recommended by clang)
+  clang-14 libclang-rt-14-dev
 )
 
 sudo_if_needed() {
