@@ -81,7 +81,7 @@ if [ "$FUZZ_SECONDS" -gt 0 ]; then
   if "$FUZZER" "${FUZZ_FLAGS[@]}" -max_total_time="$FUZZ_SECONDS" -print_final_stats=1 \
       "$BUILD_DIR/corpus" "$REPO_DIR/fuzz/corpus" "$REPO_DIR/fuzz/regressions" \
       >"$fuzz_log" 2>&1; then
-    stats="$(grep -E '^stat::(number_of_executed_units|average_exec_per_sec|new_units_added)' "$fuzz_log")"
+    stats="$(grep -E '^stat::(number_of_executed_units|average_exec_per_sec|new_units_added)' "$fuzz_log" || true)"
     log "fuzzer: no finding in ${FUZZ_SECONDS} s; $(echo "$stats" | tr '\n' ' ')"
     result "fuzz_${FUZZ_SECONDS}s" --output "$stats"
   else

@@ -48,7 +48,7 @@ else
 fi
 
 # The same tests built with ASan + UBSan (results in asan/), and libFuzzer over
-# the core (fuzz/). BDIS_SANITIZE=0 skips both (about 10 minutes on 2 cores).
+# the core (fuzz/). BDIS_SANITIZE=0 skips both (about 8 minutes on 2 cores).
 if [ "${BDIS_SANITIZE:-1}" != "0" ]; then
   "$REPO_DIR/scripts/test_sanitizers.sh" "$RESULTS_DIR" || status=1
   "$REPO_DIR/scripts/fuzz.sh" "$RESULTS_DIR" || status=1
