@@ -28,6 +28,8 @@ DEBIAN_PACKAGES=(
   python3-catkin rviz xvfb imagemagick libgl1-mesa-dri
   # benchmarks (scripts/bench.sh, bench_node.sh): bag reading, the ROS reference, callgrind
   librosbag-storage-dev libstereo-image-proc-dev valgrind
+  # fuzzer (scripts/fuzz.sh): clang and its libFuzzer runtime (only recommended by clang)
+  clang-14 libclang-rt-14-dev
 )
 
 sudo_if_needed() {

@@ -20,7 +20,7 @@ for path in sorted(root.rglob("*.xml")):
         name = f"{case.get('classname')}.{case.get('name')}"
         if case.find("failure") is not None or case.find("error") is not None:
             failed += 1
-            failures.append(name)
+            failures.append(f"{name} ({path.relative_to(root)})")  # the path tells the suite (asan/, fuzz/)
         elif case.find("skipped") is not None or case.get("status") == "notrun" or case.get("result") == "skipped":
             skipped += 1
         else:

@@ -63,6 +63,15 @@ fi
 [ -f "$RESULTS_DIR/bdis_stereo/rosunit-demo.xml" ] || { status=1; log "the demo tests wrote no results"; }
 log "test artifacts (rviz screenshot): $ARTIFACTS_DIR"
 
+# The same tests built with ASan + UBSan (results in asan/), and libFuzzer over
+# the core (fuzz/). BDIS_SANITIZE=0 skips both (about 8 minutes on 2 cores).
+if [ "${BDIS_SANITIZE:-1}" != "0" ]; then
+  "$REPO_DIR/scripts/test_sanitizers.sh" "$RESULTS_DIR" || status=1
+  "$REPO_DIR/scripts/fuzz.sh" "$RESULTS_DIR" || status=1
+else
+  log "BDIS_SANITIZE=0: skipping the sanitizer and fuzzing suites"
+fi
+
 # Summary over every result file.
 "$PYTHON_EXE" "$REPO_DIR/scripts/summarize_results.py" "$RESULTS_DIR" || status=1
 exit $status

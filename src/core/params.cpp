@@ -5,6 +5,7 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
 
 #include <opencv2/core.hpp>
 
@@ -12,6 +13,18 @@ namespace bdis {
 namespace {
 
 using Type = ParamField::Type;
+
+// Converting NaN or a value beyond the int range to int is undefined
+// behaviour: such values become INT_MIN or INT_MAX, which validate() rejects
+// like any other out-of-range value.
+template <typename T>
+T toField(double v) {
+  if constexpr (std::is_same<T, int>::value) {
+    if (!(v >= std::numeric_limits<int>::min())) return std::numeric_limits<int>::min();  // also NaN
+    if (v > std::numeric_limits<int>::max()) return std::numeric_limits<int>::max();
+  }
+  return static_cast<T>(v);
+}
 
 template <typename T>
 ParamField field(const char* name, T MatcherParams::*member, double lo, double hi,
@@ -25,7 +38,7 @@ ParamField field(const char* name, T MatcherParams::*member, double lo, double h
           hi,
           description,
           [member](const MatcherParams& p) { return static_cast<double>(p.*member); },
-          [member](MatcherParams& p, double v) { p.*member = static_cast<T>(v); }};
+          [member](MatcherParams& p, double v) { p.*member = toField<T>(v); }};
 }
 
 std::string formatValue(const ParamField& f, double v) {

@@ -94,7 +94,7 @@ MatcherParams applyOverride(MatcherParams params, const std::string& assignment)
   } else {
     v = parseDouble("parameter " + name, text);
   }
-  if (v < f->min_value || v > f->max_value) {
+  if (!(v >= f->min_value && v <= f->max_value)) {  // NaN fails too
     throw UsageError("parameter " + name + " = " + text + " is out of range [" +
                      std::to_string(f->min_value) + ", " + std::to_string(f->max_value) + "]");
   }

@@ -246,6 +246,7 @@ TEST_F(BdisMatchTest, BadSet) {
   const std::string l = path("l.png"), r = path("r.png"), d = path("d.png");
   expectFailure(run({l, r, d, "--set", "no_such_param=1"}), "no_such_param");
   expectFailure(run({l, r, d, "--set", "iterations=abc"}), "iterations");
+  expectFailure(run({l, r, d, "--set", "iterations=nan"}), "out of range");  // NaN: no range test passes
   expectFailure(run({l, r, d, "--set", "iterations"}), "NAME=VALUE");
   expectFailure(run({l, r, d, "--set"}), "--set needs a value");
 }
