@@ -18,13 +18,7 @@ while [ $# -gt 0 ]; do
   esac
 done
 
-if [ "${BDIS_SKIP_BUILD:-}" != 1 ]; then
-  install_dependencies
-  build_package
-fi
-source_workspace
-export ROS_IP=127.0.0.1
-unset ROS_HOSTNAME
+prepare_ros_run
 
 work="$(mktemp -d /tmp/bdis_bench_node.XXXXXX)"
 trap 'rm -rf "$work"' EXIT
@@ -42,7 +36,7 @@ run_one() {  # label, launch args...
   local label="$1"; shift
   local port attempt
   for attempt in 1 2; do
-    port="$("$PYTHON_EXE" -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')"
+    port="$(free_port)"
     ROS_MASTER_URI="http://127.0.0.1:$port" roslaunch -p "$port" bdis_stereo node_bench.launch \
         bag:="$work/sample.bag" label:="$label" json:="$json" rate:="$RATE" seconds:="$SECONDS_MEASURED" \
         node_core:="$node_core" bench_core:=0 "$@" >"$work/$label.log" 2>&1 || true

@@ -97,3 +97,21 @@ source_workspace() {
   source "$WS_DIR/devel/setup.bash"
   set -u
 }
+
+# For the commands that start ROS processes (demo, node benchmark, soak):
+# install and build (BDIS_SKIP_BUILD=1: use the workspace as it is), source
+# it, and keep ROS on loopback.
+prepare_ros_run() {
+  if [ "${BDIS_SKIP_BUILD:-}" != 1 ]; then
+    install_dependencies
+    build_package
+  fi
+  source_workspace
+  export ROS_IP=127.0.0.1
+  unset ROS_HOSTNAME
+}
+
+# A TCP port free on loopback now (for a master of our own).
+free_port() {
+  "$PYTHON_EXE" -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
+}

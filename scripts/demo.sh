@@ -8,9 +8,5 @@
 #   ./scripts/demo.sh --bag my.bag --left-image /cam/left/image_rect ...   (--help: all options)
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
-install_dependencies
-build_package
-source_workspace
-export ROS_IP=127.0.0.1   # the demo's own master, on loopback
-unset ROS_HOSTNAME
+prepare_ros_run   # the demo starts its own master, on loopback
 exec "$PYTHON_EXE" "$WS_DIR/devel/lib/bdis_stereo/bdis_demo" --out "$REPO_DIR/out/demo" "$@"
