@@ -6,9 +6,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "../../src/core/patch_kernels.hpp"
 #include "bdis_stereo/matcher.hpp"
@@ -532,6 +535,84 @@ TEST(MatcherRobustness, ConstantPairHasNoEstimate) {
     m.compute(bgr, bgr.clone(), r);
     EXPECT_EQ(cv::countNonZero(r.disparity != kNoDisparity), 0);
   }
+}
+
+// A clipped specular highlight: a disc saturated at 255 in both views, on the
+// surface (so at the surface's disparity in each). Inside it there is nothing
+// to match, so there must be no estimate; near its edge, patches that reach the
+// texture may keep one, but only a right one; around it the texture matches.
+TEST(MatcherRobustness, SaturatedHighlightGetsNoEstimateInside) {
+  const MatcherParams params;
+  const double d = 7.3;
+  StereoPair pair = texturedPair(kW, kH, {d, 0.0});
+  const cv::Point centre(kW / 2, kH / 2);
+  const int radius = 60;
+  cv::circle(pair.left, centre, radius, cv::Scalar(255), cv::FILLED);
+  cv::circle(pair.right, cv::Point(centre.x - static_cast<int>(std::lround(d)), centre.y), radius,
+             cv::Scalar(255), cv::FILLED);
+  const MatchResult r = run(params, pair.left, pair.right);
+  expectValidResult(r, pair.left.size(), false);
+  cv::Mat err;
+  cv::absdiff(r.disparity, pair.gt, err);
+  const cv::Mat estimated = r.disparity >= 0.f;
+
+  // Deep inside: farther from the edge than a patch's corner reaches.
+  const int reach = static_cast<int>(std::ceil(std::sqrt(2.0) * patchAtFullRes(params)));
+  cv::Mat deep = cv::Mat::zeros(kH, kW, CV_8UC1), disc = deep.clone();
+  cv::circle(deep, centre, radius - reach, cv::Scalar(255), cv::FILLED);
+  cv::circle(disc, centre, radius, cv::Scalar(255), cv::FILLED);
+  const int deep_estimated = cv::countNonZero(estimated & deep);
+  const int disc_estimated = cv::countNonZero(estimated & disc);
+  const int disc_wrong = cv::countNonZero(estimated & disc & (err >= 1.f));
+  // Outside: the interior minus the disc grown by one patch.
+  cv::Mat outside = cv::Mat::zeros(kH, kW, CV_8UC1);
+  outside(interior(kW, kH, accuracyMargin(params), 8)).setTo(255);
+  cv::circle(outside, centre, radius + patchAtFullRes(params), cv::Scalar(0), cv::FILLED);
+  const int outside_px = cv::countNonZero(outside);
+  const int outside_good = cv::countNonZero(estimated & (err < 0.5f) & outside);
+  std::printf("[measured] saturated disc: %d of %d pixels deep inside estimated, %d of %d in the "
+              "disc (%d off by >= 1 px); outside %.4f within 0.5 px\n",
+              deep_estimated, cv::countNonZero(deep), disc_estimated, cv::countNonZero(disc),
+              disc_wrong, static_cast<double>(outside_good) / outside_px);
+  EXPECT_GT(cv::countNonZero(deep), 3000);
+  EXPECT_EQ(deep_estimated, 0) << "a disparity inside a saturated area is a guess";
+  EXPECT_EQ(disc_wrong, 0);
+  EXPECT_GT(static_cast<double>(outside_good) / outside_px, 0.9);
+}
+
+// All-black and saturated frames (lens cap, light off, glare) give no estimate
+// and leave nothing behind: the next good frame is what a fresh matcher gives.
+TEST(MatcherRobustness, DegenerateFramesThenGoodFrame) {
+  MatcherParams params;
+  params.compute_variance = true;
+  const StereoPair good = texturedPair(kW, kH, {5.6, 0.0});
+  const MatchResult fresh = run(params, good.left, good.right);
+  ASSERT_GT(density(fresh.disparity), 0.9);
+
+  Matcher m(params);
+  MatchResult r;
+  const cv::Mat black = cv::Mat::zeros(kH, kW, CV_8UC1);
+  const cv::Mat saturated(kH, kW, CV_8UC1, cv::Scalar(255));
+  cv::Mat half_saturated = good.left.clone();
+  half_saturated(cv::Rect(0, 0, kW / 2, kH)).setTo(255);
+  const std::vector<std::pair<const char*, std::pair<cv::Mat, cv::Mat>>> frames = {
+      {"black", {black, black}},
+      {"saturated", {saturated, saturated}},
+      {"black left, good right", {black, good.right}},
+      {"saturated left, good right", {saturated, good.right}},
+      {"half-saturated left", {half_saturated, good.right}},
+  };
+  for (const auto& f : frames) {
+    SCOPED_TRACE(f.first);
+    ASSERT_NO_THROW(m.compute(f.second.first, f.second.second, r));
+    expectValidResult(r, good.left.size(), true);
+    if (std::string(f.first) == "half-saturated left") continue;  // the textured half matches
+    EXPECT_EQ(cv::countNonZero(r.disparity >= 0.f), 0);
+  }
+  m.compute(good.left, good.right, r);
+  EXPECT_TRUE(identical(r.disparity, fresh.disparity));
+  EXPECT_TRUE(identical(r.confidence, fresh.confidence));
+  EXPECT_TRUE(identical(r.variance, fresh.variance));
 }
 
 TEST(MatcherRobustness, NearlyFlatPairIsNeverConfident) {

@@ -201,6 +201,46 @@ TEST_F(BdisMatchTest, DirectoryModeSkipsFailedFrame) {
   EXPECT_FALSE(fs::exists(O + "/b.png"));
 }
 
+// Every kind of frame a replay can hold, in one directory: the bad ones fail
+// with their reason, the degenerate ones succeed with no estimate, and the good
+// frames after them come out right.
+TEST_F(BdisMatchTest, DirectoryModeBadAndDegenerateFrames) {
+  const std::string L = path("left"), R = path("right"), O = path("out");
+  fs::create_directories(L);
+  fs::create_directories(R);
+  cv::Mat l, r;
+  makePair(1, l, r);
+  auto write = [&](const std::string& name, const cv::Mat& left, const cv::Mat& right) {
+    ASSERT_TRUE(cv::imwrite(L + "/" + name, left)) << name;
+    ASSERT_TRUE(cv::imwrite(R + "/" + name, right)) << name;
+  };
+  const cv::Mat row(1, kWidth, CV_8UC1, cv::Scalar(100)), column(kHeight, 1, CV_8UC1, cv::Scalar(100));
+  cv::Mat lf, rf;
+  l.convertTo(lf, CV_32FC1);
+  r.convertTo(rf, CV_32FC1);
+  write("a_row.png", row, row);
+  write("b_column.png", column, column);
+  write("c_float.tiff", lf, rf);
+  write("d_black.png", cv::Mat::zeros(kHeight, kWidth, CV_8UC1), cv::Mat::zeros(kHeight, kWidth, CV_8UC1));
+  write("e_saturated.png", cv::Mat(kHeight, kWidth, CV_8UC1, cv::Scalar(255)),
+        cv::Mat(kHeight, kWidth, CV_8UC1, cv::Scalar(255)));
+  write("f_good.png", l, r);
+  const RunResult res = run({"--left-dir", L, "--right-dir", R, "--out-dir", O});
+  expectFailure(res, "a_row.png failed");
+  EXPECT_EQ(res.code(), 1);
+  for (const char* needle : {"160x1", "1x128", "at least 32", "c_float.tiff failed", "32FC1", "8-bit"}) {
+    EXPECT_NE(res.err.find(needle), std::string::npos) << "stderr lacks '" << needle << "':\n" << res.err;
+  }
+  EXPECT_NE(res.out.find("frames=3 failed=3"), std::string::npos) << res.out;
+  for (const char* name : {"a_row.png", "b_column.png", "c_float.png"}) EXPECT_FALSE(fs::exists(O + "/" + name));
+  for (const char* name : {"d_black.png", "e_saturated.png"}) {
+    const cv::Mat d = bdis::readDisparityPng(O + "/" + name);
+    ASSERT_EQ(d.size(), cv::Size(kWidth, kHeight)) << name;
+    EXPECT_EQ(cv::countNonZero(d >= 0.f), 0) << name << ": a flat frame got disparities";
+  }
+  EXPECT_NEAR(interiorMedian(bdis::readDisparityPng(O + "/f_good.png")), kShift, 0.25);
+}
+
 TEST_F(BdisMatchTest, MissingFile) {
   writePair(path("l.png"), path("r.png"));
   expectFailure(run({path("l.png"), path("nope.png"), path("d.png")}), "nope.png");
