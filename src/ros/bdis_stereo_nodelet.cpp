@@ -248,19 +248,7 @@ void BdisStereoNodelet::onInit() {
   it_.reset(new image_transport::ImageTransport(nh));
   // Hold connect_mutex_ while advertising so connectCb cannot run half-way.
   std::lock_guard<std::mutex> lock(connect_mutex_);
-  if (approximate_sync_) {
-    approx_sync_.reset(new ApproxSync(ApproxPolicy(queue_size_), sub_l_image_, sub_r_image_,
-                                      sub_l_info_, sub_r_info_));
-    approx_sync_->registerCallback(boost::bind(&BdisStereoNodelet::frameCb, this,
-                                               boost::placeholders::_1, boost::placeholders::_2,
-                                               boost::placeholders::_3, boost::placeholders::_4));
-  } else {
-    exact_sync_.reset(new ExactSync(ExactPolicy(queue_size_), sub_l_image_, sub_r_image_,
-                                    sub_l_info_, sub_r_info_));
-    exact_sync_->registerCallback(boost::bind(&BdisStereoNodelet::frameCb, this,
-                                              boost::placeholders::_1, boost::placeholders::_2,
-                                              boost::placeholders::_3, boost::placeholders::_4));
-  }
+  createSync();
   // Per-topic counters, for the "no synchronised pair" warning and diagnostics.
   sub_l_image_.registerCallback(boost::function<void(const sensor_msgs::ImageConstPtr&)>(
       [this](const sensor_msgs::ImageConstPtr& image) {
@@ -276,6 +264,14 @@ void BdisStereoNodelet::onInit() {
         last_left_seq_ = seq;
         have_left_seq_ = true;
       }));
+  sub_l_image_.registerCallback(boost::function<void(const sensor_msgs::ImageConstPtr&)>(
+      [this](const sensor_msgs::ImageConstPtr& m) { feedSync<0>(m); }));
+  sub_r_image_.registerCallback(boost::function<void(const sensor_msgs::ImageConstPtr&)>(
+      [this](const sensor_msgs::ImageConstPtr& m) { feedSync<1>(m); }));
+  sub_l_info_.registerCallback(boost::function<void(const sensor_msgs::CameraInfoConstPtr&)>(
+      [this](const sensor_msgs::CameraInfoConstPtr& m) { feedSync<2>(m); }));
+  sub_r_info_.registerCallback(boost::function<void(const sensor_msgs::CameraInfoConstPtr&)>(
+      [this](const sensor_msgs::CameraInfoConstPtr& m) { feedSync<3>(m); }));
   sub_r_image_.registerCallback(boost::function<void(const sensor_msgs::ImageConstPtr&)>(
       [this](const sensor_msgs::ImageConstPtr&) {
         std::lock_guard<std::mutex> l(stats_mutex_);
@@ -306,6 +302,42 @@ void BdisStereoNodelet::onInit() {
   NODELET_INFO("bdis_stereo: %s sync, queue %d, %s cloud%s%s, preset %s", approximate_sync_ ? "approximate" : "exact",
                queue_size_, organized_cloud_ ? "organised" : "dense",
                target_frame_.empty() ? "" : " in ", target_frame_.c_str(), preset_.c_str());
+}
+
+void BdisStereoNodelet::createSync() {
+  const auto cb = boost::bind(&BdisStereoNodelet::frameCb, this, boost::placeholders::_1,
+                              boost::placeholders::_2, boost::placeholders::_3, boost::placeholders::_4);
+  if (approximate_sync_) {
+    approx_sync_.reset(new ApproxSync(ApproxPolicy(queue_size_)));
+    approx_sync_->registerCallback(cb);
+  } else {
+    exact_sync_.reset(new ExactSync(ExactPolicy(queue_size_)));
+    exact_sync_->registerCallback(cb);
+  }
+  last_input_stamps_.fill(ros::Time());
+}
+
+template <int I, class M>
+void BdisStereoNodelet::feedSync(const boost::shared_ptr<M const>& msg) {
+  static const char* const kInputNames[] = {"left image", "right image", "left camera_info",
+                                            "right camera_info"};
+  std::lock_guard<std::mutex> lock(sync_mutex_);
+  const ros::Time stamp = msg->header.stamp;
+  ros::Time& last = last_input_stamps_[I];
+  if (!last.isZero() && stamp < last) {
+    // The first input to show the jump resets; the others then start afresh.
+    NODELET_WARN("%s stamp jumped back from %.3f to %.3f (bag loop or restart): synchroniser reset",
+                 kInputNames[I], last.toSec(), stamp.toSec());
+    createSync();
+    std::lock_guard<std::mutex> stats(stats_mutex_);
+    ++total_.time_jumps;
+  }
+  last = stamp;
+  if (approx_sync_) {
+    approx_sync_->add<I>(msg);
+  } else {
+    exact_sync_->add<I>(msg);
+  }
 }
 
 void BdisStereoNodelet::connectCb() {
@@ -419,9 +451,11 @@ void BdisStereoNodelet::process(const Frame& frame) {
   const Image& right = *frame.right;
   const ros::Time stamp = left.header.stamp;
   if (!last_stamp_.isZero() && stamp < last_stamp_) {
-    NODELET_WARN("time jumped back from %.3f to %.3f (bag loop or restart): clearing the tf buffer",
-                 last_stamp_.toSec(), stamp.toSec());
+    // Time went back (feedSync has said so): transforms stamped in the
+    // "future" would serve the new frames wrongly, and the new stream (another
+    // bag?) gets its cameras checked at once.
     if (tf_buffer_) tf_buffer_->clear();
+    last_sign_check_ = ros::WallTime();
   }
   last_stamp_ = stamp;
 
@@ -639,6 +673,7 @@ void BdisStereoNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& st
   stat.add("dropped_busy", total_.dropped_busy);
   stat.add("rejected", total_.rejected);
   stat.add("errors", total_.errors);
+  stat.add("time_jumps", total_.time_jumps);
   stat.addf("input_rate_hz", "%.2f", in / window);
   stat.addf("output_rate_hz", "%.2f", out / window);
   stat.addf("processing_ms_mean", "%.2f", proc_count_ ? proc_ms_sum_ / proc_count_ : 0.0);

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <atomic>
+#include <array>
 #include <condition_variable>
 #include <map>
 #include <cstdint>
@@ -87,8 +88,17 @@ class BdisStereoNodelet : public nodelet::Nodelet {
   std::shared_ptr<image_transport::ImageTransport> it_;
   image_transport::SubscriberFilter sub_l_image_, sub_r_image_;
   message_filters::Subscriber<CameraInfo> sub_l_info_, sub_r_info_;
-  std::shared_ptr<ExactSync> exact_sync_;
-  std::shared_ptr<ApproxSync> approx_sync_;
+  // The inputs reach the synchroniser through feedSync, under sync_mutex_, not
+  // through message_filters connections: a jump back in time (a looping bag, a
+  // restarted driver) replaces the synchroniser, whose queues would otherwise
+  // hold stale messages that pair late or block new ones.
+  std::mutex sync_mutex_;
+  std::unique_ptr<ExactSync> exact_sync_;
+  std::unique_ptr<ApproxSync> approx_sync_;
+  std::array<ros::Time, 4> last_input_stamps_{};  // per input, since the last reset
+  void createSync();
+  template <int I, class M>
+  void feedSync(const boost::shared_ptr<M const>& msg);
 
   // Outputs.
   ros::Publisher pub_disparity_, pub_points_;
@@ -130,6 +140,7 @@ class BdisStereoNodelet : public nodelet::Nodelet {
     uint64_t dropped_busy = 0;    // replaced in the mailbox while the worker was busy
     uint64_t rejected = 0;        // failed validation (bad input)
     uint64_t errors = 0;          // exception while processing
+    uint64_t time_jumps = 0;      // input stamps went back: synchroniser and tf buffer reset
   };
   Counters total_, window_start_;
   static constexpr double kSignCheckPeriod = 1.0;  // s between checks for swapped cameras

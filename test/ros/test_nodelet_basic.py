@@ -313,6 +313,36 @@ class TestNodeletBasic(unittest.TestCase):
         finally:
             disp.close()
 
+    # ---- time jumps back (last: it moves the stamps back) -------------------------
+    def test_08_time_jump_back_resets_the_synchroniser(self):
+        """A bag that loops, after a camera that lost frames: the exact
+        synchroniser still holds incomplete sets (left images whose right
+        partner never came) stamped after the new frames. Kept, they are the
+        newest entries, and each new set would be evicted before completing."""
+        disp = u.Collector("/stereo/disparity", DisparityImage)
+        try:
+            self.inputs.wait_connected()
+            before, _ = self.processed(disp)
+            for _ in range(8):  # more than queue_size (5): left only
+                s = Stamps.next()
+                self.inputs.pubs[0].publish(u.image_msg(self.left, s))
+                self.inputs.pubs[2].publish(u.info_msg(s))
+            rospy.sleep(0.5)
+            Stamps.t = before.to_sec() - 50.0  # the bag starts over
+            after, msg = self.processed(disp)
+            self.assertLess(after, before)
+            d = u.float_image(msg.image)[8:-8, u.DISPARITY + 16:-8]
+            self.assertGreater((np.abs(d - u.DISPARITY) < 0.5).mean(), 0.95)
+            self.rosout.wait_text("stamp jumped back")
+            self.assertTrue(self.rosout.find("synchroniser reset"))
+            diag = u.wait_for(lambda: (lambda d: d if int(d["time_jumps"]) > 0 else None)(self.diagnostics()),
+                              10.0, "time_jumps > 0 in diagnostics")
+            self.assertEqual(int(diag["errors"]), 0)
+            # And on from there.
+            self.processed(disp)
+        finally:
+            disp.close()
+
 
 if __name__ == "__main__":
     rostest.rosrun("bdis_stereo", "test_nodelet_basic", TestNodeletBasic)

@@ -52,6 +52,38 @@ class TestSyncTf(unittest.TestCase):
         finally:
             disp.close()
 
+    def test_approximate_sync_after_a_jump_back(self):
+        """A looping bag: the stamps go back 10 s, with the right camera 4 ms
+        behind the left and the last left images unpaired; new sets form at
+        once."""
+        inputs = u.StereoInput("/approx")
+        disp = u.Collector("/approx/disparity", DisparityImage)
+        try:
+            inputs.wait_connected()
+            for start in (300.0, 290.0, 280.0):
+                sent = []
+
+                def publish_next():
+                    stamp = rospy.Time.from_sec(start) + rospy.Duration(0.1 * len(sent))
+                    sent.append(stamp)
+                    inputs.publish_pair(stamp, self.left, self.right, right_stamp=stamp + rospy.Duration(0.004))
+
+                msg = u.publish_until(publish_next, lambda: next(
+                    (m for s in sent for m in [disp.with_stamp(s)] if m is not None), None),
+                    20.0, "a disparity after the stamps moved to %.0f s" % start, period=0.1)
+                d = u.float_image(msg.image)[8:-8, u.DISPARITY + 16:-8]
+                self.assertGreater((np.abs(d - u.DISPARITY) < 0.5).mean(), 0.95)
+                for _ in range(5):  # more of this stream before the next jump
+                    publish_next()
+                    rospy.sleep(0.1)
+                for k in range(3):  # and left images whose right partners were lost
+                    stamp = sent[-1] + rospy.Duration(0.1 * (k + 1))
+                    inputs.pubs[0].publish(u.image_msg(self.left, stamp))
+                    inputs.pubs[2].publish(u.info_msg(stamp))
+            self.assertGreaterEqual(len(self.rosout.find("synchroniser reset")), 2)
+        finally:
+            disp.close()
+
     def test_target_frame_with_and_without_transform(self):
         inputs = u.StereoInput("/tf")
         cloud = u.Collector("/tf/points2", PointCloud2)
