@@ -183,7 +183,8 @@ void BdisStereoNodelet::loadStartupParams(ros::NodeHandle& pnh) {
 
 void BdisStereoNodelet::reconfigureCb(BdisStereoConfig& config, uint32_t /*level*/) {
   try {
-    if (config.preset != preset_) {
+    const bool preset_changed = config.preset != preset_;
+    if (preset_changed) {
       bdis::MatcherParams p;
       try {
         p = bdis::MatcherParams::preset(config.preset);
@@ -204,6 +205,22 @@ void BdisStereoNodelet::reconfigureCb(BdisStereoConfig& config, uint32_t /*level
       NODELET_ERROR("dynamic_reconfigure: rejected (%s); keeping the previous parameters", e.what());
       paramsToConfig(params_, config);
       return;
+    }
+    if (!preset_changed) {
+      // dynamic_reconfigure clamps a request outside a field's range to the
+      // range's end before this callback sees it: a field that moved onto an
+      // end may have been clamped, so say so.
+      // Compared as the core stores them (float): 0.1 is not 0.1f.
+      auto same = [](double a, double b) { return static_cast<float>(a) == static_cast<float>(b); };
+      for (const bdis::ParamField& f : bdis::paramFields()) {
+        const double v = f.get(p);
+        if (f.type == bdis::ParamField::Type::Bool || same(v, f.get(params_))) continue;
+        if (same(v, f.min_value) || same(v, f.max_value)) {
+          NODELET_WARN("dynamic_reconfigure: %s = %g, the %s end of its range [%g, %g] (requests "
+                       "outside the range are clamped to it)",
+                       f.name, v, same(v, f.min_value) ? "lower" : "upper", f.min_value, f.max_value);
+        }
+      }
     }
     params_ = p;
     std::lock_guard<std::mutex> lock(params_mutex_);

@@ -1,0 +1,168 @@
+#!/usr/bin/env python3
+"""params.test: invalid values set with rosparam before the nodelet loads are
+rejected one by one with a log line naming the parameter, the effective value
+is written back, and the nodelet works with it; invalid values through
+dynamic_reconfigure are rejected (NaN, inconsistent levels) or clamped to the
+range, said so in the log, and frames keep coming."""
+import math
+import os
+import signal
+import subprocess
+import sys
+import unittest
+
+import numpy as np
+import rospy
+import rostest
+from stereo_msgs.msg import DisparityImage
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bdis_rostest_util as u  # noqa: E402
+
+MANAGER = "/manager"
+
+
+class Stamps(object):
+    t = 500.0
+
+    @classmethod
+    def next(cls):
+        cls.t += 0.1
+        return rospy.Time.from_sec(cls.t)
+
+
+class LoadedNodelet(object):
+    """bdis_stereo loaded into /manager as <ns>/bdis by nodelet's loader,
+    unloaded (SIGINT to the loader) on close."""
+
+    def __init__(self, ns):
+        self.name = ns + "/bdis"
+        self.loader = subprocess.Popen(
+            ["rosrun", "nodelet", "nodelet", "load", "bdis_stereo/BdisStereoNodelet", MANAGER,
+             "__name:=bdis", "__ns:=" + ns], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        u.wait_for(lambda: any(t == self.name + "/parameter_updates" for t, _ in rospy.get_published_topics()),
+                   30.0, "nodelet %s to load" % self.name)
+
+    def close(self):
+        self.loader.send_signal(signal.SIGINT)
+        try:
+            self.loader.wait(15)
+        except subprocess.TimeoutExpired:
+            self.loader.kill()
+            self.loader.wait()
+
+
+class TestNodeletParams(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("test_nodelet_params")
+        cls.rosout = u.RosoutWatcher(MANAGER)
+        cls.left, cls.right = u.make_pair(seed=5)
+        u.wait_for(lambda: any(t == MANAGER + "/load_nodelet" for t in _services()), 30.0, "the manager")
+        rospy.sleep(1.0)  # the /rosout subscription reaches rosout
+
+    def first_disparity(self, ns):
+        """Publishes a good pair into `ns` until its disparity comes out."""
+        inputs = u.StereoInput(ns)
+        disp = u.Collector(ns + "/disparity", DisparityImage)
+        try:
+            inputs.wait_connected()
+            stamp = Stamps.next()
+            return u.publish_until(lambda: inputs.publish_pair(stamp, self.left, self.right),
+                                   lambda: disp.with_stamp(stamp), 20.0, ns + "/disparity")
+        finally:
+            disp.close()
+
+    def check_disparity(self, msg):
+        d = u.float_image(msg.image)[8:-8, u.DISPARITY + 16:-8]
+        self.assertGreater((np.abs(d - u.DISPARITY) < 0.5).mean(), 0.9)
+
+    def test_invalid_rosparams_are_rejected_one_by_one(self):
+        ns = "/bad"
+        bad = {
+            "preset": "turbo",            # not a preset
+            "patch_size": 1000,           # out of range
+            "overlap": "lots",            # wrong type
+            "iterations": 2.5,            # not an integer
+            "sigma_r": float("nan"),
+            "window_step": float("inf"),
+            "coarsest_level": 1, "finest_level": 3,  # each valid, together not
+            "queue_size": 0,
+            "max_image_pixels": 10,
+            "tf_timeout": -1.0,
+        }
+        for k, v in bad.items():
+            rospy.set_param(ns + "/bdis/" + k, v)
+        node = LoadedNodelet(ns)
+        try:
+            for text in ("parameter preset: ", "using balanced",
+                         "parameter patch_size = 1000 is out of range [4, 32]",
+                         "parameter overlap = ", "has the wrong type (expected a number)",
+                         "parameter iterations = ", "(expected an integer)",
+                         "parameter sigma_r = nan is out of range",
+                         "parameter window_step = inf is out of range",
+                         "coarser than coarsest_level", "using the balanced preset's pyramid levels",
+                         "queue_size = 0 must be >= 1", "max_image_pixels = 10 is too small",
+                         "tf_timeout = -1 s must be in [0, 1]"):
+                self.rosout.wait_text(text)
+            # The effective values are written back.
+            p = lambda k: rospy.get_param(ns + "/bdis/" + k)  # noqa: E731
+            self.assertEqual(p("preset"), "balanced")
+            self.assertEqual((p("patch_size"), p("iterations")), (8, 3))
+            self.assertAlmostEqual(p("overlap"), 0.6, places=5)
+            self.assertAlmostEqual(p("sigma_r"), 0.5, places=5)
+            self.assertAlmostEqual(p("window_step"), 1.0, places=5)
+            self.assertEqual((p("coarsest_level"), p("finest_level")), (5, 1))
+            # And it works with them.
+            self.check_disparity(self.first_disparity(ns))
+        finally:
+            node.close()
+
+    def test_invalid_dynamic_reconfigure_values(self):
+        import dynamic_reconfigure.client
+        ns = "/dr"
+        node = LoadedNodelet(ns)
+        client = dynamic_reconfigure.client.Client(ns + "/bdis", timeout=10)
+        try:
+            # NaN passes dynamic_reconfigure's range clamp; the nodelet rejects it.
+            cfg = client.update_configuration({"sigma_r": float("nan")})
+            self.assertAlmostEqual(cfg["sigma_r"], 0.5, places=5)
+            self.rosout.wait_text("dynamic_reconfigure: rejected (parameter sigma_r = nan")
+            # Outside the range: clamped to its end, and said so.
+            cfg = client.update_configuration({"patch_size": 1000})
+            self.assertEqual(cfg["patch_size"], 32)
+            self.rosout.wait_text("dynamic_reconfigure: patch_size = 32, the upper end of its range [4, 32]")
+            cfg = client.update_configuration({"overlap": -3.0})
+            self.assertEqual(cfg["overlap"], 0.0)
+            self.rosout.wait_text("dynamic_reconfigure: overlap = 0, the lower end of its range")
+            cfg = client.update_configuration({"sigma_s": 1e9})
+            self.assertEqual(cfg["sigma_s"], 100.0)
+            self.rosout.wait_text("dynamic_reconfigure: sigma_s = 100, the upper end")
+            # Each valid, together not: rejected, previous values kept.
+            cfg = client.update_configuration({"coarsest_level": 1, "finest_level": 3})
+            self.assertEqual((cfg["coarsest_level"], cfg["finest_level"]), (5, 1))
+            # An unknown preset: kept.
+            cfg = client.update_configuration({"preset": "turbo"})
+            self.assertEqual(cfg["preset"], "balanced")
+            self.rosout.wait_text("keeping preset balanced")
+            # Frames keep coming, and a valid update still takes effect.
+            self.check_disparity(self.first_disparity(ns))
+            cfg = client.update_configuration({"patch_size": 8, "overlap": 0.6, "sigma_s": 4.0})
+            self.assertEqual(cfg["patch_size"], 8)
+            self.check_disparity(self.first_disparity(ns))
+            self.assertFalse([m for m in self.rosout.find("the upper end") if "patch_size = 8" in m])
+        finally:
+            client.close()
+            node.close()
+
+
+def _services():
+    import rosservice
+    try:
+        return rosservice.get_service_list()
+    except Exception:  # the master is still coming up
+        return []
+
+
+if __name__ == "__main__":
+    rostest.rosrun("bdis_stereo", "test_nodelet_params", TestNodeletParams)
