@@ -248,9 +248,15 @@ void BdisStereoNodelet::onInit() {
     tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_, nh));
   }
 
-  reconfigure_server_.reset(new dynamic_reconfigure::Server<BdisStereoConfig>(config_mutex_, pnh));
-  reconfigure_server_->setCallback(
-      boost::bind(&BdisStereoNodelet::reconfigureCb, this, boost::placeholders::_1, boost::placeholders::_2));
+  {
+    // The server offers set_parameters as soon as it is constructed; until the
+    // callback is set a request would be taken unvalidated (seen under ASan:
+    // sigma_r = NaN accepted). The server takes this mutex for every request.
+    boost::recursive_mutex::scoped_lock lock(config_mutex_);
+    reconfigure_server_.reset(new dynamic_reconfigure::Server<BdisStereoConfig>(config_mutex_, pnh));
+    reconfigure_server_->setCallback(boost::bind(&BdisStereoNodelet::reconfigureCb, this,
+                                                 boost::placeholders::_1, boost::placeholders::_2));
+  }
 
   updater_.reset(new diagnostic_updater::Updater(nh, pnh, getName()));
   updater_->setHardwareID("none");
