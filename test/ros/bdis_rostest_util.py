@@ -86,6 +86,17 @@ def publish_until(publish, condition, timeout, what, period=0.5):
     raise AssertionError("timed out after %.1f s waiting for %s" % (timeout, what))
 
 
+class StampSequence(object):
+    """Stamps 0.1 s apart, increasing from `start` (set `t` to jump)."""
+
+    def __init__(self, start):
+        self.t = start
+
+    def next(self):
+        self.t += 0.1
+        return rospy.Time.from_sec(self.t)
+
+
 class Collector(object):
     """Keeps every message of a topic."""
 

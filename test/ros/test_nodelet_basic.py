@@ -26,13 +26,7 @@ MANAGER = (sys.argv[sys.argv.index("--log-node") + 1] if "--log-node" in sys.arg
            else "/stereo/manager")
 
 
-class Stamps(object):
-    t = 100.0
-
-    @classmethod
-    def next(cls):
-        cls.t += 0.1
-        return rospy.Time.from_sec(cls.t)
+STAMPS = u.StampSequence(100.0)
 
 
 class TestNodeletBasic(unittest.TestCase):
@@ -47,14 +41,14 @@ class TestNodeletBasic(unittest.TestCase):
                                for t, _ in rospy.get_published_topics()), 30.0, "the nodelet to load")
 
     def good_frame(self, stamp=None):
-        stamp = stamp or Stamps.next()
+        stamp = stamp or STAMPS.next()
         self.inputs.publish_pair(stamp, self.left, self.right)
         return stamp
 
     def processed(self, collector, timeout=20.0, **pair_args):
         """Publishes a good pair (repeatedly, same stamp) until `collector` has
         its output; returns (stamp, message)."""
-        stamp = Stamps.next()
+        stamp = STAMPS.next()
         msg = u.publish_until(lambda: self.inputs.publish_pair(stamp, self.left, self.right, **pair_args),
                               lambda: collector.with_stamp(stamp), timeout,
                               "%s with stamp %.3f" % (collector.sub.name, stamp.to_sec()))
@@ -108,7 +102,7 @@ class TestNodeletBasic(unittest.TestCase):
                        10.0, "output connections")
             # Republish until every output has the frame: the two nodes (or
             # processes, in node.test) subscribe to the inputs independently.
-            stamp = Stamps.next()
+            stamp = STAMPS.next()
             outputs = (disp, depth, depth_info, conf, cloud, dense)
             u.publish_until(lambda: self.inputs.publish_pair(stamp, self.left, self.right, cx_right=cx_right),
                             lambda: all(c.with_stamp(stamp) for c in outputs), 20.0,
@@ -246,7 +240,7 @@ class TestNodeletBasic(unittest.TestCase):
                     # The image check runs on the first frame and then once a
                     # second (a swap is a setup error, there from the start).
                     rospy.sleep(1.2)
-                bad = Stamps.next()
+                bad = STAMPS.next()
                 u.publish_until(lambda: self.inputs.publish(*make(bad)), lambda: self.rosout.find(text),
                                 15.0, "a log line containing %r" % text)
                 self.processed(disp)  # the manager is alive and the next good frame goes out
@@ -264,7 +258,7 @@ class TestNodeletBasic(unittest.TestCase):
             self.inputs.wait_connected()
             sent = []
             for _ in range(6):  # 6 x 0.25 s > sync_warn_timeout = 1 s (basic.test)
-                s = Stamps.next()
+                s = STAMPS.next()
                 sent.append(s)
                 self.inputs.publish_pair(s, self.left, self.right, right_stamp=s + rospy.Duration(0.003))
                 rospy.sleep(0.25)  # paces the input like a camera; not a synchronisation
@@ -340,11 +334,11 @@ class TestNodeletBasic(unittest.TestCase):
             self.inputs.wait_connected()
             before, _ = self.processed(disp)
             for _ in range(8):  # more than queue_size (5): left only
-                s = Stamps.next()
+                s = STAMPS.next()
                 self.inputs.pubs[0].publish(u.image_msg(self.left, s))
                 self.inputs.pubs[2].publish(u.info_msg(s))
             rospy.sleep(0.5)
-            Stamps.t = before.to_sec() - 50.0  # the bag starts over
+            STAMPS.t = before.to_sec() - 50.0  # the bag starts over
             after, msg = self.processed(disp)
             self.assertLess(after, before)
             d = u.float_image(msg.image)[8:-8, u.DISPARITY + 16:-8]

@@ -22,13 +22,7 @@ import bdis_rostest_util as u  # noqa: E402
 MANAGER = "/manager"
 
 
-class Stamps(object):
-    t = 500.0
-
-    @classmethod
-    def next(cls):
-        cls.t += 0.1
-        return rospy.Time.from_sec(cls.t)
+STAMPS = u.StampSequence(500.0)
 
 
 class LoadedNodelet(object):
@@ -70,7 +64,7 @@ class TestNodeletParams(unittest.TestCase):
         disp = u.Collector(ns + "/disparity", DisparityImage)
         try:
             inputs.wait_connected()
-            stamp = Stamps.next()
+            stamp = STAMPS.next()
             return u.publish_until(lambda: inputs.publish_pair(stamp, self.left, self.right),
                                    lambda: disp.with_stamp(stamp), 20.0, ns + "/disparity")
         finally:
