@@ -406,8 +406,8 @@ void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
   const PyramidLevel& L = *cur.level;
   const int p = params.patch_size;
   if (!cur.left_all_valid) {
-    detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, cur.view, cur.valid,
-                       L.left_valid.step1(), r);
+    kernels->sums_masked(cur.right_rows, cur.right_stride, L.right_valid[cur.y0], L.right_valid.step1(),
+                         L.width, p, span, cur.view, cur.valid, L.left_valid.step1(), r);
     return;
   }
   // Inside the image, with invalid right pixels elsewhere on the level.
@@ -426,8 +426,8 @@ void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
               cur.y0 + p) == 0) {
     kernels->sums_clipped(cur.right_rows, cur.right_stride, p, span, cols, cur.view, r);
   } else {
-    detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, cur.view, cur.valid,
-                       L.left_valid.step1(), r);
+    kernels->sums_masked(cur.right_rows, cur.right_stride, L.right_valid[cur.y0], L.right_valid.step1(),
+                         L.width, p, span, cur.view, cur.valid, L.left_valid.step1(), r);
   }
 }
 

@@ -15,7 +15,7 @@ const KernelSet* avx2KernelsFor(int patch_size);
 
 namespace {
 constexpr KernelSet kScalar{"scalar", &sumsAllValid, &sumsClipped, &windowCostsAllValid,
-                            &accumulatePatch};
+                            &sumsMasked, &accumulatePatch};
 
 bool cpuHasAvx2() {
 #if defined(BDIS_HAVE_AVX2_KERNELS) && (defined(__GNUC__) || defined(__clang__))

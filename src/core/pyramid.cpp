@@ -176,7 +176,12 @@ void allocate(PyramidLevel& l, int w, int h) {
   }
   l.left_gx.create(h, w);
   l.left_valid.create(h, w);
-  l.right_valid.create(h, w);
+  if (l.right_valid_padded.rows != h || l.right_valid_padded.cols != w + 2 * kRightPadding) {
+    // Outside the image counts as invalid: the masked kernels read the padding.
+    l.right_valid_padded.create(h, w + 2 * kRightPadding);
+    l.right_valid_padded.setTo(0);
+    l.right_valid = l.right_valid_padded.colRange(kRightPadding, kRightPadding + w);
+  }
   l.gx_sum.create(h + 1, w + 1);
   l.gx_sq_sum.create(h + 1, w + 1);
   if (l.left_invalid.rows != h + 1 || l.left_invalid.cols != w + 1) {
