@@ -136,9 +136,10 @@ struct SearchPass {
   std::vector<CurrentPatch> loaded_patches;  ///< as the forward pass loaded them, for the backward one
   /// Loads the left patch at (x0, y0); false when too few of its pixels are valid.
   bool loadPatch(const PyramidLevel& L, int x0, int y0);
-  void patchSums(float u, ResidualSums& r);
+  /// The residual sums at disparity u; g_diff only `with_gradient` (a cost alone needs none).
+  void patchSums(float u, ResidualSums& r, bool with_gradient = true);
   /// patchSums away from the common case: near the image edge or near invalid pixels.
-  void patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r);
+  void patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r, bool with_gradient);
   /// Mean squared residual at disparity u (mean-normalised if enabled); +inf without pixels.
   float patchCost(float u, float* valid_count = nullptr);
   float refinePatch(float u_start);
@@ -388,21 +389,22 @@ bool SearchPass::loadPatch(const PyramidLevel& L, int x0, int y0) {
   return true;
 }
 
-void SearchPass::patchSums(float u, ResidualSums& r) {
+void SearchPass::patchSums(float u, ResidualSums& r, bool with_gradient) {
   const int p = params.patch_size;
   const SampleSpan span = detail::sampleSpan(cur.x0, u);
   // Fast path: the span and its right neighbour column inside the image, and
   // no invalid pixel anywhere near (the usual case, kept short).
   if (cur.no_invalid_pixels && span.base >= 0 && span.base + p < cur.width) {
-    kernels->sums_all_valid(cur.right_rows, cur.right_stride, p, span, cur.view, r);
+    (with_gradient ? kernels->sums_all_valid : kernels->sums_all_valid_no_gradient)(
+        cur.right_rows, cur.right_stride, p, span, cur.view, r);
     r.g = cur.g_sum;
     r.g_sq = cur.g_sq_sum;
     return;
   }
-  patchSumsNearInvalidOrEdge(span, r);
+  patchSumsNearInvalidOrEdge(span, r, with_gradient);
 }
 
-void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
+void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r, bool with_gradient) {
   const PyramidLevel& L = *cur.level;
   const int p = params.patch_size;
   if (!cur.left_all_valid) {
@@ -413,7 +415,8 @@ void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
   // Inside the image, with invalid right pixels elsewhere on the level.
   if (span.base >= 0 && span.base + p < L.width &&
       rectSum(L.right_invalid, span.base, cur.y0, span.base + p + 1, cur.y0 + p) == 0) {
-    kernels->sums_all_valid(cur.right_rows, cur.right_stride, p, span, cur.view, r);
+    (with_gradient ? kernels->sums_all_valid : kernels->sums_all_valid_no_gradient)(
+        cur.right_rows, cur.right_stride, p, span, cur.view, r);
     r.g = cur.g_sum;
     r.g_sq = cur.g_sq_sum;
     return;
@@ -433,7 +436,7 @@ void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
 
 float SearchPass::patchCost(float u, float* valid_count) {
   ResidualSums r;
-  patchSums(u, r);
+  patchSums(u, r, /*with_gradient=*/false);
   if (valid_count) *valid_count = r.count;
   if (r.count <= 0.f) return std::numeric_limits<float>::infinity();
   const float mean = r.diff / r.count;

@@ -86,6 +86,27 @@ inline void sumsAllValid(const float* rows, size_t stride, int p, SampleSpan spa
   out.g_diff = sgd;
 }
 
+/// sumsAllValid without the gradient sum, for a cost alone: count, diff and
+/// diff_sq as sumsAllValid gives them (the same operations), g_diff 0.
+inline void sumsAllValidNoGradient(const float* rows, size_t stride, int p, SampleSpan span,
+                                   const PatchView& patch, ResidualSums& out) {
+  const float w0 = 1.f - span.frac, w1 = span.frac;
+  float sd = 0, sdd = 0;
+  for (int y = 0; y < p; ++y) {
+    const float* r = rows + y * stride + span.base;
+    const float* t = patch.tmpl + y * patch.stride;
+    for (int i = 0; i < p; ++i) {
+      const float d = w0 * r[i] + w1 * r[i + 1] - t[i];
+      sd += d;
+      sdd += d * d;
+    }
+  }
+  out.count = static_cast<float>(p * p);
+  out.diff = sd;
+  out.diff_sq = sdd;
+  out.g_diff = 0.f;
+}
+
 /// Window fast path: the costs of `samples` disparities a whole number of
 /// pixels (`step`) apart, which share one interpolation weight. Sample j reads
 /// the right patch at column base_lo + step * (samples - 1 - j), so one
@@ -229,6 +250,8 @@ struct KernelSet {
   const char* name;
   void (*sums_all_valid)(const float* rows, size_t stride, int p, SampleSpan span,
                          const PatchView& patch, ResidualSums& out);
+  void (*sums_all_valid_no_gradient)(const float* rows, size_t stride, int p, SampleSpan span,
+                                     const PatchView& patch, ResidualSums& out);
   void (*sums_clipped)(const float* rows, size_t stride, int p, SampleSpan span, ColumnRange cols,
                        const PatchView& patch, ResidualSums& out);
   void (*window_costs)(const float* rows, size_t stride, int p, int base_lo, float frac, int samples,

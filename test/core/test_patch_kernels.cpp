@@ -129,6 +129,12 @@ TEST(PatchKernels, EveryIsaAgreesWithTheReference) {
         const double want = referenceCost(right, T, x0, y0, p, u, false);
         EXPECT_EQ(r.count, p * p) << k.name << " p=" << p;
         EXPECT_NEAR(r.diff_sq / r.count, want, 2e-4 * want) << k.name << " p=" << p << " u=" << u;
+        // A cost alone: the same sums, bit for bit, without the gradient's.
+        ResidualSums cost;
+        k.sums_all_valid_no_gradient(right[y0], right.step1(), p, span, view, cost);
+        EXPECT_EQ(cost.count, r.count) << k.name << " p=" << p;
+        EXPECT_EQ(cost.diff, r.diff) << k.name << " p=" << p << " u=" << u;
+        EXPECT_EQ(cost.diff_sq, r.diff_sq) << k.name << " p=" << p << " u=" << u;
         const SampleSpan lo = sampleSpan(x0, static_cast<float>(u + n * step));
         k.window_costs(right[y0], right.step1(), p, lo.base, lo.frac, samples, step, view, true,
                        row.data(), sum.data(), sum_sq.data(), costs.data());
