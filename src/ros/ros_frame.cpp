@@ -8,6 +8,11 @@
 #include <sstream>
 #include <stdexcept>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#include <xmmintrin.h>
+#endif
+
 #include <image_geometry/pinhole_camera_model.h>
 #include <opencv2/imgproc.hpp>
 #include <sensor_msgs/image_encodings.h>
@@ -260,7 +265,40 @@ namespace {
 void organisedCloudRow(const float* z, int width, const double* nx, double ny, const cv::Vec3b* bgr,
                        uint8_t* out) {
   const uint32_t point_step = bgr ? 16 : 12;
-  for (int x = 0; x < width; ++x, out += point_step) {
+  int x = 0;
+#if defined(__SSE2__)
+  if (bgr) {
+    // Four points at a time: x, y, z and rgb as four vectors, transposed into
+    // four 16-byte points. rgb (PCL: 0x00RRGGBB, little-endian) is the B, G,
+    // R bytes and a 0: a 4-byte load masked, so the row's last pixel, whose
+    // load would pass the row's end, is left to the loop below.
+    const __m128 nan = _mm_set1_ps(kNaN);
+    const __m128d ny2 = _mm_set1_pd(ny);
+    const __m128i rgb_mask = _mm_set1_epi32(0x00FFFFFF);
+    const uint8_t* c = bgr[0].val;
+    for (; x + 4 < width; x += 4, out += 64) {
+      const __m128 zv = _mm_loadu_ps(z + x);
+      const __m128 valid = _mm_cmpord_ps(zv, zv);
+      const __m128d z_lo = _mm_cvtps_pd(zv), z_hi = _mm_cvtps_pd(_mm_movehl_ps(zv, zv));
+      const __m128 xv = _mm_movelh_ps(_mm_cvtpd_ps(_mm_mul_pd(_mm_loadu_pd(nx + x), z_lo)),
+                                      _mm_cvtpd_ps(_mm_mul_pd(_mm_loadu_pd(nx + x + 2), z_hi)));
+      const __m128 yv = _mm_movelh_ps(_mm_cvtpd_ps(_mm_mul_pd(ny2, z_lo)), _mm_cvtpd_ps(_mm_mul_pd(ny2, z_hi)));
+      __m128 px = _mm_or_ps(_mm_and_ps(valid, xv), _mm_andnot_ps(valid, nan));
+      __m128 py = _mm_or_ps(_mm_and_ps(valid, yv), _mm_andnot_ps(valid, nan));
+      __m128 pz = _mm_or_ps(_mm_and_ps(valid, zv), _mm_andnot_ps(valid, nan));
+      int32_t colour[4];
+      for (int k = 0; k < 4; ++k) std::memcpy(&colour[k], c + 3 * (x + k), 4);
+      __m128 pc = _mm_castsi128_ps(
+          _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(colour)), rgb_mask));
+      _MM_TRANSPOSE4_PS(px, py, pz, pc);
+      _mm_storeu_ps(reinterpret_cast<float*>(out), px);
+      _mm_storeu_ps(reinterpret_cast<float*>(out + 16), py);
+      _mm_storeu_ps(reinterpret_cast<float*>(out + 32), pz);
+      _mm_storeu_ps(reinterpret_cast<float*>(out + 48), pc);
+    }
+  }
+#endif
+  for (; x < width; ++x, out += point_step) {
     const bool valid = !std::isnan(z[x]);
     const float xyz[3] = {valid ? static_cast<float>(nx[x] * z[x]) : kNaN,
                           valid ? static_cast<float>(ny * z[x]) : kNaN, valid ? z[x] : kNaN};
