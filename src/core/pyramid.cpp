@@ -157,11 +157,17 @@ bool invalidCountIntegral(const cv::Mat1b& valid, cv::Mat1i& sum, bool& all_zero
     const int* above = sum[y];
     int* out = sum[y + 1];
     out[0] = 0;
+    // The running count only up to the row's last invalid pixel (borders are
+    // usually a few columns at one side); past it the count is constant and
+    // the loop vectorises.
+    const void* last_invalid = memrchr(v, 0, static_cast<size_t>(w));
+    const int end = last_invalid ? static_cast<int>(static_cast<const uchar*>(last_invalid) - v) + 1 : 0;
     int row = 0;
-    for (int x = 0; x < w; ++x) {
+    for (int x = 0; x < end; ++x) {
       row += v[x] == 0;
       out[x + 1] = above[x + 1] + row;
     }
+    for (int x = end; x < w; ++x) out[x + 1] = above[x + 1] + row;
   }
   return false;
 }
