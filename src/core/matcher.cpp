@@ -177,9 +177,10 @@ struct SearchPass {
   std::vector<CurrentPatch> loaded_patches;  ///< as the forward pass loaded them, for the backward one
   /// Loads the left patch at (x0, y0); false when too few of its pixels are valid.
   bool loadPatch(const PyramidLevel& L, int x0, int y0);
-  void patchSums(float u, ResidualSums& r);
+  /// The residual sums at disparity u; g_diff only `with_gradient` (a cost alone needs none).
+  void patchSums(float u, ResidualSums& r, bool with_gradient = true);
   /// patchSums away from the common case: near the image edge or near invalid pixels.
-  void patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r);
+  void patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r, bool with_gradient);
   /// Mean squared residual at disparity u (mean-normalised if enabled); +inf without pixels.
   float patchCost(float u, float* valid_count = nullptr);
   /// Grey-level variance of the current patch's valid template pixels.
@@ -431,32 +432,34 @@ bool SearchPass::loadPatch(const PyramidLevel& L, int x0, int y0) {
   return true;
 }
 
-void SearchPass::patchSums(float u, ResidualSums& r) {
+void SearchPass::patchSums(float u, ResidualSums& r, bool with_gradient) {
   const int p = params.patch_size;
   const SampleSpan span = detail::sampleSpan(cur.x0, u);
   // Fast path: the span and its right neighbour column inside the image, and
   // no invalid pixel anywhere near (the usual case, kept short).
   if (cur.no_invalid_pixels && span.base >= 0 && span.base + p < cur.width) {
-    kernels->sums_all_valid(cur.right_rows, cur.right_stride, p, span, cur.view, r);
+    (with_gradient ? kernels->sums_all_valid : kernels->sums_all_valid_no_gradient)(
+        cur.right_rows, cur.right_stride, p, span, cur.view, r);
     r.g = cur.g_sum;
     r.g_sq = cur.g_sq_sum;
     return;
   }
-  patchSumsNearInvalidOrEdge(span, r);
+  patchSumsNearInvalidOrEdge(span, r, with_gradient);
 }
 
-void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
+void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r, bool with_gradient) {
   const PyramidLevel& L = *cur.level;
   const int p = params.patch_size;
   if (!cur.left_all_valid) {
-    detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, cur.view, cur.valid,
-                       L.left_valid.step1(), r);
+    kernels->sums_masked(cur.right_rows, cur.right_stride, L.right_valid[cur.y0], L.right_valid.step1(),
+                         L.width, p, span, cur.view, cur.valid, L.left_valid.step1(), r);
     return;
   }
   // Inside the image, with invalid right pixels elsewhere on the level.
   if (span.base >= 0 && span.base + p < L.width &&
       rectSum(L.right_invalid, span.base, cur.y0, span.base + p + 1, cur.y0 + p) == 0) {
-    kernels->sums_all_valid(cur.right_rows, cur.right_stride, p, span, cur.view, r);
+    (with_gradient ? kernels->sums_all_valid : kernels->sums_all_valid_no_gradient)(
+        cur.right_rows, cur.right_stride, p, span, cur.view, r);
     r.g = cur.g_sum;
     r.g_sq = cur.g_sq_sum;
     return;
@@ -469,8 +472,8 @@ void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
               cur.y0 + p) == 0) {
     kernels->sums_clipped(cur.right_rows, cur.right_stride, p, span, cols, cur.view, r);
   } else {
-    detail::sumsMasked(L.right, L.right_valid, cur.y0, p, span, cur.view, cur.valid,
-                       L.left_valid.step1(), r);
+    kernels->sums_masked(cur.right_rows, cur.right_stride, L.right_valid[cur.y0], L.right_valid.step1(),
+                         L.width, p, span, cur.view, cur.valid, L.left_valid.step1(), r);
   }
 }
 
@@ -498,7 +501,7 @@ float SearchPass::templateVariance() const {
 
 float SearchPass::patchCost(float u, float* valid_count) {
   ResidualSums r;
-  patchSums(u, r);
+  patchSums(u, r, /*with_gradient=*/false);
   if (valid_count) *valid_count = r.count;
   if (r.count <= 0.f) return std::numeric_limits<float>::infinity();
   const float mean = r.diff / r.count;

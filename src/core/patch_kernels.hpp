@@ -86,6 +86,27 @@ inline void sumsAllValid(const float* rows, size_t stride, int p, SampleSpan spa
   out.g_diff = sgd;
 }
 
+/// sumsAllValid without the gradient sum, for a cost alone: count, diff and
+/// diff_sq as sumsAllValid gives them (the same operations), g_diff 0.
+inline void sumsAllValidNoGradient(const float* rows, size_t stride, int p, SampleSpan span,
+                                   const PatchView& patch, ResidualSums& out) {
+  const float w0 = 1.f - span.frac, w1 = span.frac;
+  float sd = 0, sdd = 0;
+  for (int y = 0; y < p; ++y) {
+    const float* r = rows + y * stride + span.base;
+    const float* t = patch.tmpl + y * patch.stride;
+    for (int i = 0; i < p; ++i) {
+      const float d = w0 * r[i] + w1 * r[i + 1] - t[i];
+      sd += d;
+      sdd += d * d;
+    }
+  }
+  out.count = static_cast<float>(p * p);
+  out.diff = sd;
+  out.diff_sq = sdd;
+  out.g_diff = 0.f;
+}
+
 /// Window fast path: the costs of `samples` disparities a whole number of
 /// pixels (`step`) apart, which share one interpolation weight. Sample j reads
 /// the right patch at column base_lo + step * (samples - 1 - j), so one
@@ -160,24 +181,26 @@ inline void sumsClipped(const float* rows, size_t stride, int p, SampleSpan span
 }
 
 /// General path: pixels invalid in the template (M == 0; rows `mask_stride`
-/// bytes apart), outside the image, or touching an invalid right pixel are
-/// left out of every sum.
-inline void sumsMasked(const cv::Mat1f& right, const cv::Mat1b& right_valid, int y0, int p,
-                       SampleSpan span, const PatchView& patch, const uchar* M,
-                       size_t mask_stride, ResidualSums& out) {
-  const int w = right.cols;
+/// bytes apart), outside the image [0, width), or touching an invalid right
+/// pixel (right_valid == 0; column 0 of the patch's first row at
+/// `right_valid`, rows `valid_stride` bytes apart) are left out of every sum.
+/// `rows` and `stride` as for sumsAllValid.
+inline void sumsMasked(const float* rows, size_t stride, const uchar* right_valid,
+                       size_t valid_stride, int width, int p, SampleSpan span,
+                       const PatchView& patch, const uchar* M, size_t mask_stride,
+                       ResidualSums& out) {
   const bool two_taps = span.frac > 0.f;
   const float w0 = 1.f - span.frac;
   float n = 0, sd = 0, sdd = 0, sgd = 0, sg = 0, sgg = 0;
   for (int y = 0; y < p; ++y) {
-    const float* r = right[y0 + y];
-    const uchar* rv = right_valid[y0 + y];
+    const float* r = rows + y * stride;
+    const uchar* rv = right_valid + y * valid_stride;
     const float* t = patch.tmpl + y * patch.stride;
     const float* g = patch.grad + y * patch.stride;
     const uchar* m = M + y * mask_stride;
     for (int i = 0; i < p; ++i) {
       const int xr = span.base + i;
-      if (!m[i] || xr < 0 || xr + (two_taps ? 1 : 0) >= w) continue;
+      if (!m[i] || xr < 0 || xr + (two_taps ? 1 : 0) >= width) continue;
       if (!rv[xr] || (two_taps && !rv[xr + 1])) continue;
       const float sample = two_taps ? w0 * r[xr] + span.frac * r[xr + 1] : r[xr];
       const float d = sample - t[i];
@@ -220,15 +243,23 @@ inline void accumulatePatch(int p, const float* spatial, float posterior, float 
 /// The fixed-size sums_clipped reads columns base .. base + p of every row,
 /// also outside `cols` (and multiplies them by 0): those must be readable and
 /// finite, which the pyramid's padded right rows (kRightPadding) guarantee.
+/// The fixed-size sums_masked reads the same columns of the right image and
+/// of its validity, whose padding must be 0 (invalid): that, not a bounds
+/// test, leaves the columns outside the image out.
 struct KernelSet {
   const char* name;
   void (*sums_all_valid)(const float* rows, size_t stride, int p, SampleSpan span,
                          const PatchView& patch, ResidualSums& out);
+  void (*sums_all_valid_no_gradient)(const float* rows, size_t stride, int p, SampleSpan span,
+                                     const PatchView& patch, ResidualSums& out);
   void (*sums_clipped)(const float* rows, size_t stride, int p, SampleSpan span, ColumnRange cols,
                        const PatchView& patch, ResidualSums& out);
   void (*window_costs)(const float* rows, size_t stride, int p, int base_lo, float frac, int samples,
                        int step, const PatchView& patch, bool mean_normalization, float* row_buf,
                        float* sum, float* sum_sq, float* costs);
+  void (*sums_masked)(const float* rows, size_t stride, const uchar* right_valid, size_t valid_stride,
+                      int width, int p, SampleSpan span, const PatchView& patch, const uchar* M,
+                      size_t mask_stride, ResidualSums& out);
   void (*accumulate_patch)(int p, const float* spatial, float posterior, float disparity,
                            float evidence, float* num, float* den, float* conf, size_t stride);
 };

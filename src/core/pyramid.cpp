@@ -65,6 +65,16 @@ void downsample(const cv::Mat1f& fine, const cv::Mat1b& fine_valid, cv::Mat1f& c
 
 // Central difference where both neighbours are valid, one-sided where only
 // one is, 0 where neither is: invalid pixels never enter a gradient.
+float edgeGradient(const float* p, const uchar* v, int w, int x) {
+  const bool has_left = x > 0 && v[x - 1];
+  const bool has_right = x + 1 < w && v[x + 1];
+  if (!v[x]) return 0.f;
+  if (has_left && has_right) return 0.5f * (p[x + 1] - p[x - 1]);
+  if (has_right) return p[x + 1] - p[x];
+  if (has_left) return p[x] - p[x - 1];
+  return 0.f;
+}
+
 BDIS_ROW_LOOP
 void horizontalGradient(const cv::Mat1f& img, const cv::Mat1b& valid, cv::Mat1f& gx) {
   const int w = img.cols;
@@ -79,21 +89,19 @@ void horizontalGradient(const cv::Mat1f& img, const cv::Mat1b& valid, cv::Mat1f&
       g[w - 1] = p[w - 1] - p[w - 2];
       continue;
     }
-    for (int x = 0; x < w; ++x) {
-      const bool has_left = x > 0 && v[x - 1];
-      const bool has_right = x + 1 < w && v[x + 1];
-      if (!v[x]) {
-        g[x] = 0.f;
-      } else if (has_left && has_right) {
-        g[x] = 0.5f * (p[x + 1] - p[x - 1]);
-      } else if (has_right) {
-        g[x] = p[x + 1] - p[x];
-      } else if (has_left) {
-        g[x] = p[x] - p[x - 1];
-      } else {
-        g[x] = 0.f;
-      }
+    // A row with invalid pixels (every row, with a black border down one
+    // side): the interior without branches, so that it vectorises too.
+    g[0] = edgeGradient(p, v, w, 0);
+    for (int x = 1; x + 1 < w; ++x) {
+      const bool has_left = v[x - 1] != 0, has_right = v[x + 1] != 0;
+      const float central = 0.5f * (p[x + 1] - p[x - 1]);
+      const float forward = p[x + 1] - p[x];
+      const float backward = p[x] - p[x - 1];
+      const float one_sided = has_right ? forward : has_left ? backward : 0.f;
+      const float value = has_left && has_right ? central : one_sided;
+      g[x] = v[x] != 0 ? value : 0.f;
     }
+    if (w > 1) g[w - 1] = edgeGradient(p, v, w, w - 1);
   }
 }
 
@@ -149,11 +157,17 @@ bool invalidCountIntegral(const cv::Mat1b& valid, cv::Mat1i& sum, bool& all_zero
     const int* above = sum[y];
     int* out = sum[y + 1];
     out[0] = 0;
+    // The running count only up to the row's last invalid pixel (borders are
+    // usually a few columns at one side); past it the count is constant and
+    // the loop vectorises.
+    const void* last_invalid = memrchr(v, 0, static_cast<size_t>(w));
+    const int end = last_invalid ? static_cast<int>(static_cast<const uchar*>(last_invalid) - v) + 1 : 0;
     int row = 0;
-    for (int x = 0; x < w; ++x) {
+    for (int x = 0; x < end; ++x) {
       row += v[x] == 0;
       out[x + 1] = above[x + 1] + row;
     }
+    for (int x = end; x < w; ++x) out[x + 1] = above[x + 1] + row;
   }
   return false;
 }
@@ -176,7 +190,12 @@ void allocate(PyramidLevel& l, int w, int h) {
   }
   l.left_gx.create(h, w);
   l.left_valid.create(h, w);
-  l.right_valid.create(h, w);
+  if (l.right_valid_padded.rows != h || l.right_valid_padded.cols != w + 2 * kRightPadding) {
+    // Outside the image counts as invalid: the masked kernels read the padding.
+    l.right_valid_padded.create(h, w + 2 * kRightPadding);
+    l.right_valid_padded.setTo(0);
+    l.right_valid = l.right_valid_padded.colRange(kRightPadding, kRightPadding + w);
+  }
   l.gx_sum.create(h + 1, w + 1);
   l.gx_sq_sum.create(h + 1, w + 1);
   if (l.left_invalid.rows != h + 1 || l.left_invalid.cols != w + 1) {

@@ -21,7 +21,8 @@ struct PyramidLevel {
   cv::Mat1f right_padded;
   cv::Mat1f left_gx;     ///< horizontal gradient of left, from valid neighbours only
   cv::Mat1b left_valid;  ///< 1 where the pixel lies inside the rectified view
-  cv::Mat1b right_valid;
+  cv::Mat1b right_valid;  ///< a view into right_valid_padded: kRightPadding columns of 0 each side
+  cv::Mat1b right_valid_padded;
   // Integral images ((h+1) x (w+1)), used by the all-valid fast path.
   cv::Mat1d gx_sum;         ///< sum of gx
   cv::Mat1d gx_sq_sum;      ///< sum of gx^2 (the 1-D Hessian)

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 
+#include <boost/make_shared.hpp>
 #include <dynamic_reconfigure/Config.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <opencv2/imgproc.hpp>
@@ -55,6 +56,17 @@ void paramsToConfig(const bdis::MatcherParams& p, BdisStereoConfig& config) {
     if (const bdis::ParamField* f = bdis::findParamField(v.name)) v.value = f->get(p) != 0.0;
   }
   config.__fromMessage__(msg);
+}
+
+// The message in `slot` when nobody else holds it any more (roscpp has
+// serialised it for every TCP subscriber and no intraprocess subscriber or
+// queue keeps it), else a new one that takes the slot. Rewriting a reused
+// message skips the zero-fill and page faults of fresh multi-megabyte
+// buffers every frame; a message someone still holds is never touched.
+template <typename M>
+boost::shared_ptr<M> reusableMessage(boost::shared_ptr<M>& slot) {
+  if (!slot || slot.use_count() != 1) slot = boost::make_shared<M>();
+  return slot;
 }
 
 std::string describeValue(const XmlRpc::XmlRpcValue& v) {
@@ -550,35 +562,44 @@ void BdisStereoNodelet::process(const Frame& frame) {
 
   std_msgs::Header header = left.header;  // outputs: left image's stamp and frame
   if (want_disparity || want_disparity_image) {
-    stereo_msgs::DisparityImagePtr msg(new stereo_msgs::DisparityImage);
+    const stereo_msgs::DisparityImagePtr msg = reusableMessage(disparity_msg_);
     msg->header = header;
     msg->image.header = header;
     fillDisparityImage(result_.disparity, camera, *msg);
-    if (want_disparity_image) pub_disparity_image_.publish(sensor_msgs::ImagePtr(new Image(msg->image)));
+    if (want_disparity_image) {
+      const sensor_msgs::ImagePtr image = reusableMessage(disparity_image_msg_);
+      *image = msg->image;
+      pub_disparity_image_.publish(image);
+    }
     if (want_disparity) pub_disparity_.publish(msg);
   }
+  // The depth image: in the depth message when that is published, else in a
+  // scratch buffer when points2 needs it.
+  cv::Mat depth;
   if (want_depth) {
-    sensor_msgs::ImagePtr msg(new sensor_msgs::Image);
+    const sensor_msgs::ImagePtr msg = reusableMessage(depth_msg_);
     msg->header = header;
     fillDepthImage(result_.disparity, camera, *msg);
+    depth = cv::Mat(static_cast<int>(msg->height), static_cast<int>(msg->width), CV_32FC1,
+                    msg->data.data(), msg->step);
     sensor_msgs::CameraInfoPtr info(new sensor_msgs::CameraInfo(*frame.left_info));
     info->header = header;
-    pub_depth_.publish(msg, info);
+    pub_depth_.publish(msg, info);  // read below while subscribers read it too: never written
   }
   if (want_confidence) {
-    sensor_msgs::ImagePtr msg(new sensor_msgs::Image);
+    const sensor_msgs::ImagePtr msg = reusableMessage(confidence_msg_);
     msg->header = header;
     fillFloatImage(result_.confidence, *msg);
     pub_confidence_.publish(msg);
   }
   if (want_variance && !result_.variance.empty()) {
-    sensor_msgs::ImagePtr msg(new sensor_msgs::Image);
+    const sensor_msgs::ImagePtr msg = reusableMessage(variance_msg_);
     msg->header = header;
     fillFloatImage(result_.variance, *msg);
     pub_variance_.publish(msg);
   }
   if (want_points) {
-    sensor_msgs::PointCloud2Ptr msg(new sensor_msgs::PointCloud2);
+    const sensor_msgs::PointCloud2Ptr msg = reusableMessage(points_msg_);
     msg->header = header;
     RigidTransform transform;
     bool transformed = false;
@@ -605,8 +626,12 @@ void BdisStereoNodelet::process(const Frame& frame) {
                               header.frame_id.c_str());
       }
     }
-    fillPointCloud(result_.disparity, camera, left_colour, organized_cloud_,
-                   transformed ? &transform : nullptr, points_buffer_, *msg);
+    if (depth.empty()) {
+      bdis::disparityToDepth(result_.disparity, camera, depth_buffer_);
+      depth = depth_buffer_;
+    }
+    fillPointCloudFromDepth(depth, camera, left_colour, organized_cloud_,
+                            transformed ? &transform : nullptr, *msg);
     pub_points_.publish(msg);
   }
 

@@ -32,6 +32,8 @@
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <stereo_msgs/DisparityImage.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
@@ -123,7 +125,12 @@ class BdisStereoNodelet : public nodelet::Nodelet {
   Frame pending_;
   bdis::Matcher matcher_;
   bdis::MatchResult result_;
-  cv::Mat left_buffer_, right_buffer_, grey_buffer_, points_buffer_;
+  cv::Mat left_buffer_, right_buffer_, grey_buffer_;
+  cv::Mat depth_buffer_;  ///< depth for points2 while depth/image_rect has no subscriber
+  // Output messages, reused once every subscriber has let go of them.
+  stereo_msgs::DisparityImagePtr disparity_msg_;
+  sensor_msgs::ImagePtr disparity_image_msg_, depth_msg_, confidence_msg_, variance_msg_;
+  sensor_msgs::PointCloud2Ptr points_msg_;
   ros::Time last_stamp_;
 
   // tf (only when target_frame is set).

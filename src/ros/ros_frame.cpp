@@ -8,6 +8,11 @@
 #include <sstream>
 #include <stdexcept>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#include <xmmintrin.h>
+#endif
+
 #include <image_geometry/pinhole_camera_model.h>
 #include <opencv2/imgproc.hpp>
 #include <sensor_msgs/image_encodings.h>
@@ -20,6 +25,7 @@ namespace enc = sensor_msgs::image_encodings;
 namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+constexpr float kInvalidDisparity = -1.0f;  // DisparityImage: min_disparity (0) - 1
 
 int channelsOf(const std::string& encoding) {
   if (encoding == enc::MONO8) return 1;
@@ -64,6 +70,16 @@ cv::Mat floatImageOver(int rows, int cols, sensor_msgs::Image& msg) {
   msg.step = cols * sizeof(float);
   msg.data.resize(static_cast<std::size_t>(msg.step) * msg.height);
   return cv::Mat(rows, cols, CV_32FC1, msg.data.data(), msg.step);
+}
+
+// One row of the DisparityImage: d - offset where that is an estimate in
+// front of infinity, else kInvalidDisparity. Without branches, so that it
+// vectorises.
+void shiftedDisparityRow(const float* d, int width, float offset, float* out) {
+  for (int x = 0; x < width; ++x) {
+    const float shifted = d[x] - offset;
+    out[x] = d[x] >= 0.0f && shifted > 0.0f ? shifted : kInvalidDisparity;
+  }
 }
 
 }  // namespace
@@ -198,34 +214,25 @@ void fillDisparityImage(const cv::Mat& disparity, const bdis::StereoCamera& came
   CV_Assert(disparity.type() == CV_32FC1);
   cv::Mat out_image = floatImageOver(disparity.rows, disparity.cols, msg.image);
   const float offset = static_cast<float>(camera.cx - camera.cx_right);
-  const float invalid = -1.0f;  // min_disparity - 1
-  float max_d = 0.0f;
   int x0 = disparity.cols, y0 = disparity.rows, x1 = -1, y1 = -1;
   for (int y = 0; y < disparity.rows; ++y) {
-    const float* d = disparity.ptr<float>(y);
     float* out = out_image.ptr<float>(y);
-    bool row_valid = false;
-    for (int x = 0; x < disparity.cols; ++x) {
-      const float shifted = d[x] - offset;
-      if (d[x] >= 0.0f && shifted > 0.0f) {
-        out[x] = shifted;
-        max_d = std::max(max_d, shifted);
-        x0 = std::min(x0, x);
-        x1 = std::max(x1, x);
-        row_valid = true;
-      } else {
-        out[x] = invalid;
-      }
-    }
-    if (row_valid) {
-      y0 = std::min(y0, y);
-      y1 = y;
-    }
+    shiftedDisparityRow(disparity.ptr<float>(y), disparity.cols, offset, out);
+    int first = 0, last = disparity.cols - 1;
+    while (first < disparity.cols && !(out[first] > 0.0f)) ++first;
+    if (first == disparity.cols) continue;  // no estimate in this row
+    while (!(out[last] > 0.0f)) --last;
+    x0 = std::min(x0, first);
+    x1 = std::max(x1, last);
+    y0 = std::min(y0, y);
+    y1 = y;
   }
+  double max_d = 0.0;
+  if (x1 >= 0) cv::minMaxIdx(out_image, nullptr, &max_d);
   msg.f = static_cast<float>(camera.fx);
   msg.T = static_cast<float>(camera.baseline);
   msg.min_disparity = 0.0f;
-  msg.max_disparity = std::ceil(max_d);
+  msg.max_disparity = std::ceil(static_cast<float>(max_d));
   msg.delta_d = 1.0f / 16.0f;
   if (x1 >= 0) {
     msg.valid_window.x_offset = x0;
@@ -245,10 +252,72 @@ void fillDepthImage(const cv::Mat& disparity, const bdis::StereoCamera& camera,
 
 void fillPointCloud(const cv::Mat& disparity, const bdis::StereoCamera& camera,
                     const cv::Mat& left_bgr, bool organized, const RigidTransform* transform,
-                    cv::Mat& points, sensor_msgs::PointCloud2& msg) {
-  const bool rgb = !left_bgr.empty() && left_bgr.type() == CV_8UC3 &&
-                   left_bgr.size() == disparity.size();
-  bdis::disparityToPoints(disparity, camera, points);
+                    cv::Mat& depth, sensor_msgs::PointCloud2& msg) {
+  bdis::disparityToDepth(disparity, camera, depth);
+  fillPointCloudFromDepth(depth, camera, left_bgr, organized, transform, msg);
+}
+
+namespace {
+
+// One organised row without a transform, the common case: no branch per
+// point. The same arithmetic as bdis::disparityToPoints (x and y in double
+// from the float depth), so the same values.
+void organisedCloudRow(const float* z, int width, const double* nx, double ny, const cv::Vec3b* bgr,
+                       uint8_t* out) {
+  const uint32_t point_step = bgr ? 16 : 12;
+  int x = 0;
+#if defined(__SSE2__)
+  if (bgr) {
+    // Four points at a time: x, y, z and rgb as four vectors, transposed into
+    // four 16-byte points. rgb (PCL: 0x00RRGGBB, little-endian) is the B, G,
+    // R bytes and a 0: a 4-byte load masked, so the row's last pixel, whose
+    // load would pass the row's end, is left to the loop below.
+    const __m128 nan = _mm_set1_ps(kNaN);
+    const __m128d ny2 = _mm_set1_pd(ny);
+    const __m128i rgb_mask = _mm_set1_epi32(0x00FFFFFF);
+    const uint8_t* c = bgr[0].val;
+    for (; x + 4 < width; x += 4, out += 64) {
+      const __m128 zv = _mm_loadu_ps(z + x);
+      const __m128 valid = _mm_cmpord_ps(zv, zv);
+      const __m128d z_lo = _mm_cvtps_pd(zv), z_hi = _mm_cvtps_pd(_mm_movehl_ps(zv, zv));
+      const __m128 xv = _mm_movelh_ps(_mm_cvtpd_ps(_mm_mul_pd(_mm_loadu_pd(nx + x), z_lo)),
+                                      _mm_cvtpd_ps(_mm_mul_pd(_mm_loadu_pd(nx + x + 2), z_hi)));
+      const __m128 yv = _mm_movelh_ps(_mm_cvtpd_ps(_mm_mul_pd(ny2, z_lo)), _mm_cvtpd_ps(_mm_mul_pd(ny2, z_hi)));
+      __m128 px = _mm_or_ps(_mm_and_ps(valid, xv), _mm_andnot_ps(valid, nan));
+      __m128 py = _mm_or_ps(_mm_and_ps(valid, yv), _mm_andnot_ps(valid, nan));
+      __m128 pz = _mm_or_ps(_mm_and_ps(valid, zv), _mm_andnot_ps(valid, nan));
+      int32_t colour[4];
+      for (int k = 0; k < 4; ++k) std::memcpy(&colour[k], c + 3 * (x + k), 4);
+      __m128 pc = _mm_castsi128_ps(
+          _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(colour)), rgb_mask));
+      _MM_TRANSPOSE4_PS(px, py, pz, pc);
+      _mm_storeu_ps(reinterpret_cast<float*>(out), px);
+      _mm_storeu_ps(reinterpret_cast<float*>(out + 16), py);
+      _mm_storeu_ps(reinterpret_cast<float*>(out + 32), pz);
+      _mm_storeu_ps(reinterpret_cast<float*>(out + 48), pc);
+    }
+  }
+#endif
+  for (; x < width; ++x, out += point_step) {
+    const bool valid = !std::isnan(z[x]);
+    const float xyz[3] = {valid ? static_cast<float>(nx[x] * z[x]) : kNaN,
+                          valid ? static_cast<float>(ny * z[x]) : kNaN, valid ? z[x] : kNaN};
+    std::memcpy(out, xyz, 12);
+    if (bgr) {
+      const uint32_t packed = (static_cast<uint32_t>(bgr[x][2]) << 16) |
+                              (static_cast<uint32_t>(bgr[x][1]) << 8) | bgr[x][0];
+      std::memcpy(out + 12, &packed, 4);
+    }
+  }
+}
+
+}  // namespace
+
+void fillPointCloudFromDepth(const cv::Mat& depth, const bdis::StereoCamera& camera,
+                             const cv::Mat& left_bgr, bool organized, const RigidTransform* transform,
+                             sensor_msgs::PointCloud2& msg) {
+  CV_Assert(depth.type() == CV_32FC1);
+  const bool rgb = !left_bgr.empty() && left_bgr.type() == CV_8UC3 && left_bgr.size() == depth.size();
   const uint32_t point_step = rgb ? 16 : 12;
   if (msg.fields.size() != (rgb ? 4u : 3u)) {
     msg.fields.clear();
@@ -264,32 +333,45 @@ void fillPointCloud(const cv::Mat& disparity, const bdis::StereoCamera& camera,
   }
   msg.is_bigendian = false;
   msg.point_step = point_step;
-  std::size_t count = static_cast<std::size_t>(disparity.rows) * disparity.cols;
+  std::size_t count = static_cast<std::size_t>(depth.rows) * depth.cols;
   if (!organized) {
     count = 0;
-    for (int y = 0; y < points.rows; ++y) {
-      const cv::Vec3f* p = points.ptr<cv::Vec3f>(y);
-      for (int x = 0; x < points.cols; ++x) count += std::isnan(p[x][2]) ? 0 : 1;
+    for (int y = 0; y < depth.rows; ++y) {
+      const float* z = depth.ptr<float>(y);
+      for (int x = 0; x < depth.cols; ++x) count += std::isnan(z[x]) ? 0 : 1;
     }
   }
+  // Sized without zero-filling where the message is reused (same size: no-op).
   msg.data.resize(count * point_step);
+  std::vector<double> nx(static_cast<std::size_t>(depth.cols));
+  for (int x = 0; x < depth.cols; ++x) nx[x] = (x - camera.cx) / camera.fx;
   uint8_t* out = msg.data.data();
-  for (int y = 0; y < points.rows; ++y) {
-    const cv::Vec3f* p = points.ptr<cv::Vec3f>(y);
+  for (int y = 0; y < depth.rows; ++y) {
+    const float* z = depth.ptr<float>(y);
     const cv::Vec3b* c = rgb ? left_bgr.ptr<cv::Vec3b>(y) : nullptr;
-    for (int x = 0; x < points.cols; ++x) {
-      float xyz[3] = {p[x][0], p[x][1], p[x][2]};
-      const bool valid = !std::isnan(xyz[2]);
+    const double ny = (y - camera.cy) / camera.fy;
+    if (organized && !transform) {
+      organisedCloudRow(z, depth.cols, nx.data(), ny, c, out);
+      out += static_cast<std::size_t>(depth.cols) * point_step;
+      continue;
+    }
+    for (int x = 0; x < depth.cols; ++x) {
+      const bool valid = !std::isnan(z[x]);
       if (!valid && !organized) continue;
-      if (valid && transform) {
-        const double* r = transform->r;
-        const double* t = transform->t;
-        const float a = xyz[0], b = xyz[1], z = xyz[2];
-        xyz[0] = static_cast<float>(r[0] * a + r[1] * b + r[2] * z + t[0]);
-        xyz[1] = static_cast<float>(r[3] * a + r[4] * b + r[5] * z + t[1]);
-        xyz[2] = static_cast<float>(r[6] * a + r[7] * b + r[8] * z + t[2]);
+      float xyz[3] = {kNaN, kNaN, kNaN};
+      if (valid) {
+        xyz[0] = static_cast<float>(nx[x] * z[x]);
+        xyz[1] = static_cast<float>(ny * z[x]);
+        xyz[2] = z[x];
+        if (transform) {
+          const double* r = transform->r;
+          const double* t = transform->t;
+          const float a = xyz[0], b = xyz[1], zz = xyz[2];
+          xyz[0] = static_cast<float>(r[0] * a + r[1] * b + r[2] * zz + t[0]);
+          xyz[1] = static_cast<float>(r[3] * a + r[4] * b + r[5] * zz + t[1]);
+          xyz[2] = static_cast<float>(r[6] * a + r[7] * b + r[8] * zz + t[2]);
+        }
       }
-      if (!valid) xyz[0] = xyz[1] = xyz[2] = kNaN;
       std::memcpy(out, xyz, 12);
       if (rgb) {
         const uint32_t packed = (static_cast<uint32_t>(c[x][2]) << 16) |
@@ -300,8 +382,8 @@ void fillPointCloud(const cv::Mat& disparity, const bdis::StereoCamera& camera,
     }
   }
   if (organized) {
-    msg.height = disparity.rows;
-    msg.width = disparity.cols;
+    msg.height = depth.rows;
+    msg.width = depth.cols;
     msg.is_dense = false;
   } else {
     msg.height = 1;

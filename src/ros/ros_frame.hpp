@@ -77,13 +77,22 @@ struct RigidTransform {
 };
 
 /// sensor_msgs/PointCloud2 with float32 x, y, z and, when `left_bgr` is a
-/// CV_8UC3 BGR image, a packed float32 rgb field (PCL convention).
-/// organized: height x width of the image, NaN for pixels without an
-/// estimate, is_dense = false; otherwise height 1 and only valid points,
-/// is_dense = true. `points` is a reused CV_32FC3 scratch buffer; `transform`
-/// (may be null) maps the camera-frame points into another frame. Header untouched.
+/// CV_8UC3 BGR image, a packed float32 rgb field (PCL convention), from a
+/// depth image (CV_32FC1 as fillDepthImage writes it, NaN where unknown):
+/// x, y, z as bdis::disparityToPoints gives them. organized: height x width
+/// of the image, NaN for pixels without an estimate, is_dense = false;
+/// otherwise height 1 and only valid points, is_dense = true. `transform`
+/// (may be null) maps the camera-frame points into another frame. Written
+/// straight into `msg.data`, which keeps its capacity (and, at an unchanged
+/// size, is not cleared first) when `msg` is reused. Header untouched.
+void fillPointCloudFromDepth(const cv::Mat& depth, const bdis::StereoCamera& camera,
+                             const cv::Mat& left_bgr, bool organized, const RigidTransform* transform,
+                             sensor_msgs::PointCloud2& msg);
+
+/// fillPointCloudFromDepth from a disparity image; `depth` is a reused
+/// scratch buffer for its depth image.
 void fillPointCloud(const cv::Mat& disparity, const bdis::StereoCamera& camera,
                     const cv::Mat& left_bgr, bool organized, const RigidTransform* transform,
-                    cv::Mat& points, sensor_msgs::PointCloud2& msg);
+                    cv::Mat& depth, sensor_msgs::PointCloud2& msg);
 
 }  // namespace bdis_stereo

@@ -995,7 +995,10 @@ TEST(MatcherKernels, SimdAndScalarPathsAgree) {
     for (const char* preset : {"fast", "balanced"}) {
       const MatcherParams params = MatcherParams::preset(preset);
       StereoPair pair = texturedPair(kW, kH, {6.0, 0.03}, 21);
-      pair.left.colRange(0, 20).setTo(0);  // some masked-path patches too
+      // Masked-path patches too: invalid pixels in the template, and matches
+      // that touch invalid right pixels.
+      pair.left.colRange(0, 20).setTo(0);
+      pair.right.rowRange(kH - 12, kH).colRange(30, kW).setTo(0);
       setenv("BDIS_SIMD", simd, 1);
       const char* kernels = bdis::detail::kernelsFor(params.patch_size, bdis::detail::bestKernelIsa()).name;
       const MatchResult fast = run(params, pair.left, pair.right);

@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <algorithm>
 #include <cstdio>
 #include <ostream>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -90,7 +92,8 @@ TEST(PatchKernels, AllValidSumsMatchTheMaskedPathWhenEverythingIsValid) {
   const SampleSpan span = sampleSpan(x0, 9.37f);
   ResidualSums fast, masked;
   sumsAllValid(right[y0], right.step1(), p, span, view, fast);
-  sumsMasked(right, valid, y0, p, span, view, M.data(), p, masked);
+  sumsMasked(right[y0], right.step1(), valid[y0], valid.step1(), right.cols, p, span, view, M.data(), p,
+             masked);
   EXPECT_EQ(fast.count, masked.count);
   EXPECT_NEAR(fast.diff, masked.diff, 1e-3 * std::fabs(masked.diff) + 1e-2);
   EXPECT_NEAR(fast.diff_sq, masked.diff_sq, 1e-4 * masked.diff_sq);
@@ -126,6 +129,12 @@ TEST(PatchKernels, EveryIsaAgreesWithTheReference) {
         const double want = referenceCost(right, T, x0, y0, p, u, false);
         EXPECT_EQ(r.count, p * p) << k.name << " p=" << p;
         EXPECT_NEAR(r.diff_sq / r.count, want, 2e-4 * want) << k.name << " p=" << p << " u=" << u;
+        // A cost alone: the same sums, bit for bit, without the gradient's.
+        ResidualSums cost;
+        k.sums_all_valid_no_gradient(right[y0], right.step1(), p, span, view, cost);
+        EXPECT_EQ(cost.count, r.count) << k.name << " p=" << p;
+        EXPECT_EQ(cost.diff, r.diff) << k.name << " p=" << p << " u=" << u;
+        EXPECT_EQ(cost.diff_sq, r.diff_sq) << k.name << " p=" << p << " u=" << u;
         const SampleSpan lo = sampleSpan(x0, static_cast<float>(u + n * step));
         k.window_costs(right[y0], right.step1(), p, lo.base, lo.frac, samples, step, view, true,
                        row.data(), sum.data(), sum_sq.data(), costs.data());
@@ -207,7 +216,8 @@ TEST(PatchKernels, ClippedSumsMatchTheMaskedPathAtTheImageEdges) {
           ResidualSums clipped, masked;
           k.sums_clipped(right[y0], right.step1(), p, span, columnsInside(width, p, span), view,
                          clipped);
-          sumsMasked(right, valid, y0, p, span, view, M.data(), static_cast<size_t>(p), masked);
+          sumsMasked(right[y0], right.step1(), valid[y0], valid.step1(), width, p, span, view, M.data(),
+                     static_cast<size_t>(p), masked);
           EXPECT_EQ(clipped.count, masked.count) << k.name << " p=" << p << " x0=" << x0 << " u=" << u;
           EXPECT_NEAR(clipped.diff, masked.diff, 1e-3 * std::fabs(masked.diff) + 1e-1);
           EXPECT_NEAR(clipped.diff_sq, masked.diff_sq, 1e-4 * masked.diff_sq + 1e-3);
@@ -221,6 +231,80 @@ TEST(PatchKernels, ClippedSumsMatchTheMaskedPathAtTheImageEdges) {
   }
   EXPECT_GE(sets_checked, 8);
   EXPECT_GE(partial, 40);  // the cases do reach past the edges
+}
+
+// Every kernel set's masked sums (the fixed-size ones weight lanes by the
+// validity bytes and read the zero padding for columns outside the image)
+// against a per-pixel double-precision reference, with invalid pixels in the
+// template and in the right image and matches reaching past either edge.
+TEST(PatchKernels, EveryIsaMaskedSumsMatchThePerPixelReference) {
+  cv::RNG rng(17);
+  const int width = 90, height = 48;
+  cv::Mat1f padded(height, width + 2 * kRightPadding, 0.f);
+  cv::Mat1f right = padded.colRange(kRightPadding, kRightPadding + width);
+  rng.fill(right, cv::RNG::UNIFORM, 0.f, 255.f);
+  cv::Mat1b valid_padded(height, width + 2 * kRightPadding, uchar(0));
+  cv::Mat1b valid = valid_padded.colRange(kRightPadding, kRightPadding + width);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) valid(y, x) = rng.uniform(0, 5) != 0;  // one in five invalid
+  }
+  int sets_checked = 0, cases = 0, partial = 0;
+  for (KernelIsa isa : {KernelIsa::Scalar, KernelIsa::Baseline, KernelIsa::Avx2}) {
+    if (!kernelIsaAvailable(isa)) continue;
+    for (int p : {8, 16, 32, 10}) {
+      const KernelSet& k = kernelsFor(p, isa);
+      ++sets_checked;
+      std::vector<float> T(static_cast<size_t>(p * p)), G(T.size());
+      std::vector<uchar> M(T.size());
+      for (float& t : T) t = rng.uniform(0.f, 255.f);
+      for (float& g : G) g = rng.uniform(-20.f, 20.f);
+      for (uchar& m : M) m = rng.uniform(0, 4) != 0;
+      const PatchView view{T.data(), G.data(), static_cast<size_t>(p)};
+      const int y0 = 3;
+      for (int x0 : {0, 5, width / 2, width - p - 3, width - p}) {
+        for (float u : {-7.5f, -1.f, 0.f, 0.25f, 3.f, 9.6f, 21.f, static_cast<float>(p) + 4.5f, 80.f}) {
+          const SampleSpan span = sampleSpan(x0, u);
+          ResidualSums got;
+          k.sums_masked(right[y0], right.step1(), valid[y0], valid.step1(), width, p, span, view, M.data(),
+                        static_cast<size_t>(p), got);
+          // Sums, and sums of magnitudes that bound the float rounding.
+          double n = 0, sd = 0, sdd = 0, sgd = 0, sg = 0, sgg = 0, abs_d = 0, abs_gd = 0, abs_g = 0;
+          for (int y = 0; y < p; ++y) {
+            for (int i = 0; i < p; ++i) {
+              const int xr = span.base + i, taps = span.frac > 0.f ? 1 : 0;
+              if (!M[y * p + i] || xr < 0 || xr + taps >= width) continue;
+              if (!valid(y0 + y, xr) || !valid(y0 + y, xr + taps)) continue;
+              const double sample = (1.0 - span.frac) * right(y0 + y, xr) +
+                                    (taps ? span.frac * right(y0 + y, xr + 1) : 0.0);
+              const double d = sample - T[y * p + i], g = G[y * p + i];
+              n += 1;
+              sd += d;
+              sdd += d * d;
+              sgd += g * d;
+              sg += g;
+              sgg += g * g;
+              abs_d += std::fabs(d);
+              abs_gd += std::fabs(g * d);
+              abs_g += std::fabs(g);
+            }
+          }
+          const std::string where = std::string(k.name) + " p=" + std::to_string(p) +
+                                    " x0=" + std::to_string(x0) + " u=" + std::to_string(u);
+          EXPECT_EQ(got.count, n) << where;
+          EXPECT_NEAR(got.diff, sd, 1e-4 * abs_d + 1e-3) << where;
+          EXPECT_NEAR(got.diff_sq, sdd, 1e-4 * sdd + 1e-3) << where;
+          EXPECT_NEAR(got.g_diff, sgd, 1e-4 * abs_gd + 1e-3) << where;
+          EXPECT_NEAR(got.g, sg, 1e-4 * abs_g + 1e-3) << where;
+          EXPECT_NEAR(got.g_sq, sgg, 1e-4 * sgg + 1e-3) << where;
+          ++cases;
+          if (n > 0 && n < p * p / 2) ++partial;
+        }
+      }
+    }
+  }
+  EXPECT_GE(sets_checked, 8);
+  EXPECT_GE(partial, 40);  // many patches mostly masked or past an edge
+  EXPECT_GE(cases, 8 * 45);
 }
 
 }  // namespace

@@ -252,3 +252,84 @@ TEST(RosFrameConvert, DenseCloudKeepsOnlyValidPointsWithoutRgbForMono) {
   EXPECT_NEAR(p[1], (0 - 2) * z / 500, 1e-5);
   EXPECT_NEAR(p[2], z, 1e-5);
 }
+
+namespace {
+
+// Disparities over the whole range: estimates, no estimate, at and beyond
+// infinity (d <= cx - cx_right = 2), NaN.
+cv::Mat randomDisparity(int rows, int cols, uint64_t seed) {
+  cv::RNG rng(seed);
+  cv::Mat d(rows, cols, CV_32FC1);
+  for (int y = 0; y < rows; ++y) {
+    for (int x = 0; x < cols; ++x) {
+      const int kind = rng.uniform(0, 10);
+      float v = rng.uniform(0.f, 80.f);
+      if (kind == 0) v = bdis::kNoDisparity;
+      if (kind == 1) v = 2.0f;
+      if (kind == 2) v = std::numeric_limits<float>::quiet_NaN();
+      d.at<float>(y, x) = v;
+    }
+  }
+  return d;
+}
+
+bool sameFloat(float a, float b) { return (std::isnan(a) && std::isnan(b)) || a == b; }
+
+}  // namespace
+
+TEST(RosFrameConvert, CloudFromDepthHasTheCoreGeometrysPoints) {
+  const cv::Mat disp = randomDisparity(23, 37, 1);
+  cv::Mat bgr(disp.size(), CV_8UC3);
+  cv::randu(bgr, 0, 256);
+  sensor_msgs::Image depth_msg;
+  bdis_stereo::fillDepthImage(disp, testCamera(), depth_msg);
+  const cv::Mat depth(23, 37, CV_32FC1, depth_msg.data.data(), depth_msg.step);
+  sensor_msgs::PointCloud2 msg;
+  bdis_stereo::fillPointCloudFromDepth(depth, testCamera(), bgr, true, nullptr, msg);
+  cv::Mat points;
+  bdis::disparityToPoints(disp, testCamera(), points);
+  ASSERT_EQ(msg.data.size(), 23u * 37u * 16u);
+  for (int y = 0; y < 23; ++y) {
+    for (int x = 0; x < 37; ++x) {
+      float p[4];
+      std::memcpy(p, msg.data.data() + (y * 37 + x) * 16, 16);
+      const cv::Vec3f q = points.at<cv::Vec3f>(y, x);
+      EXPECT_TRUE(sameFloat(p[0], q[0]) && sameFloat(p[1], q[1]) && sameFloat(p[2], q[2]))
+          << "at " << x << ", " << y;
+      EXPECT_TRUE(sameFloat(p[2], testCamera().depth(disp.at<float>(y, x))));
+      uint32_t rgb;
+      std::memcpy(&rgb, &p[3], 4);
+      const cv::Vec3b c = bgr.at<cv::Vec3b>(y, x);
+      EXPECT_EQ(rgb, (uint32_t(c[2]) << 16) | (uint32_t(c[1]) << 8) | c[0]);
+    }
+  }
+}
+
+// The nodelet rewrites its previous messages: every byte must come from the
+// new frame, whatever the old message held.
+TEST(RosFrameConvert, ReusedMessagesEqualFreshOnes) {
+  const cv::Mat first = randomDisparity(23, 37, 2), second = randomDisparity(23, 37, 3);
+  cv::Mat bgr(first.size(), CV_8UC3);
+  cv::randu(bgr, 0, 256);
+  stereo_msgs::DisparityImage disparity, fresh_disparity;
+  bdis_stereo::fillDisparityImage(first, testCamera(), disparity);
+  bdis_stereo::fillDisparityImage(second, testCamera(), disparity);
+  bdis_stereo::fillDisparityImage(second, testCamera(), fresh_disparity);
+  EXPECT_EQ(disparity, fresh_disparity);
+  sensor_msgs::Image depth, fresh_depth;
+  bdis_stereo::fillDepthImage(first, testCamera(), depth);
+  bdis_stereo::fillDepthImage(second, testCamera(), depth);
+  bdis_stereo::fillDepthImage(second, testCamera(), fresh_depth);
+  EXPECT_EQ(depth.data, fresh_depth.data);
+  for (const bool organized : {true, false}) {
+    for (const bool rgb : {true, false}) {
+      cv::Mat scratch;
+      sensor_msgs::PointCloud2 cloud, fresh_cloud;
+      bdis_stereo::fillPointCloud(first, testCamera(), rgb ? bgr : cv::Mat(), organized, nullptr, scratch, cloud);
+      bdis_stereo::fillPointCloud(second, testCamera(), rgb ? bgr : cv::Mat(), organized, nullptr, scratch, cloud);
+      bdis_stereo::fillPointCloud(second, testCamera(), rgb ? bgr : cv::Mat(), organized, nullptr, scratch,
+                                  fresh_cloud);
+      EXPECT_EQ(cloud, fresh_cloud) << "organized " << organized << ", rgb " << rgb;
+    }
+  }
+}
