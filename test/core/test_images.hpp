@@ -23,6 +23,7 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 namespace bdis_test {
 
@@ -142,6 +143,21 @@ inline StereoPair texturedPair(int width, int height, LinearDisparity disp, unsi
   p.left = tex.render(xl, height);
   p.right = tex.render(xr, height, right_offset);
   return p;
+}
+
+/// Blurred uniform noise stretched to 20..235 (no pure black, no saturation),
+/// and the pair with integer disparity `shift`: left(x) = right(x - shift).
+inline void blurredNoisePair(uint64_t rng_seed, int shift, int width, int height, double blur_sigma,
+                             cv::Mat& left, cv::Mat& right) {
+  cv::Mat noise(height, width + shift, CV_32FC1);
+  cv::RNG rng(rng_seed);
+  rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
+  cv::GaussianBlur(noise, noise, cv::Size(0, 0), blur_sigma);
+  cv::normalize(noise, noise, 20, 235, cv::NORM_MINMAX);
+  cv::Mat tex;
+  noise.convertTo(tex, CV_8UC1);
+  left = tex(cv::Rect(0, 0, width, height)).clone();
+  right = tex(cv::Rect(shift, 0, width, height)).clone();
 }
 
 /// Values of `m` (CV_32FC1) inside `roi`, optionally only where `mask` != 0.

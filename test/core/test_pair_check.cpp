@@ -9,20 +9,13 @@
 
 #include "bdis_stereo/evaluation.hpp"
 #include "bdis_stereo/pair_check.hpp"
+#include "test_images.hpp"
 
 namespace {
 
 // Smooth random texture; right = left shifted by `shift` px (left(x) = right(x - shift)).
 void makePair(int shift, cv::Mat& left, cv::Mat& right, int width = 320, int height = 240) {
-  cv::Mat noise(height, width + shift, CV_32FC1);
-  cv::RNG rng(7);
-  rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
-  cv::GaussianBlur(noise, noise, cv::Size(0, 0), 2.0);
-  cv::normalize(noise, noise, 20, 235, cv::NORM_MINMAX);
-  cv::Mat tex;
-  noise.convertTo(tex, CV_8UC1);
-  left = tex(cv::Rect(0, 0, width, height)).clone();
-  right = tex(cv::Rect(shift, 0, width, height)).clone();
+  bdis_test::blurredNoisePair(7, shift, width, height, 2.0, left, right);
 }
 
 TEST(PairCheck, RightOrderHasNoNegativeMatches) {

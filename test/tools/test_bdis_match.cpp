@@ -20,6 +20,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "bdis_stereo/evaluation.hpp"
+#include "../core/test_images.hpp"
 #include "../tool_runner.hpp"
 
 namespace {
@@ -39,16 +40,7 @@ class BdisMatchTest : public bdis_test::ToolTest {
   // A smooth random texture (no pure black) and the pair with disparity kShift.
   static void makePair(int seed, cv::Mat& left, cv::Mat& right, int width = kWidth,
                        int height = kHeight) {
-    cv::Mat noise(height, width + kShift, CV_32FC1);
-    cv::RNG rng(static_cast<uint64_t>(seed) + 1);
-    rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
-    cv::GaussianBlur(noise, noise, cv::Size(0, 0), 1.5);
-    cv::normalize(noise, noise, 20, 235, cv::NORM_MINMAX);
-    cv::Mat tex;
-    noise.convertTo(tex, CV_8UC1);
-    // left(x) = tex(x), right(x) = tex(x + d): left(x) = right(x - d).
-    left = tex(cv::Rect(0, 0, width, height)).clone();
-    right = tex(cv::Rect(kShift, 0, width, height)).clone();
+    bdis_test::blurredNoisePair(static_cast<uint64_t>(seed) + 1, kShift, width, height, 1.5, left, right);
   }
 
   void writePair(const std::string& left_path, const std::string& right_path, int seed = 0) {
