@@ -343,7 +343,9 @@ void fillPointCloudFromDepth(const cv::Mat& depth, const bdis::StereoCamera& cam
   }
   // Sized without zero-filling where the message is reused (same size: no-op).
   msg.data.resize(count * point_step);
-  std::vector<double> nx(static_cast<std::size_t>(depth.cols));
+  // Per thread and kept: the nodelet's worker allocates it once, not per frame.
+  thread_local std::vector<double> nx;
+  nx.resize(static_cast<std::size_t>(depth.cols));
   for (int x = 0; x < depth.cols; ++x) nx[x] = (x - camera.cx) / camera.fx;
   uint8_t* out = msg.data.data();
   for (int y = 0; y < depth.rows; ++y) {
