@@ -340,9 +340,15 @@ void SearchPass::matchLevel(int s, bool finest) {
   patchAxis(L.width, p, stride, xs);
   patchAxis(L.height, p, stride, ys);
   const int nx = static_cast<int>(xs.size()), ny = static_cast<int>(ys.size());
-  patches.resize(static_cast<size_t>(nx) * static_cast<size_t>(ny));
-  patch_loaded.resize(patches.size());
-  loaded_patches.resize(patches.size());
+  // Only grown: the finer level has more patches than the coarser one before
+  // it, and resizing down and up again would construct them anew every level.
+  // Every entry below nx * ny is written by the forward pass before it is read.
+  const size_t num_patches = static_cast<size_t>(nx) * static_cast<size_t>(ny);
+  if (patches.size() < num_patches) {
+    patches.resize(num_patches);
+    patch_loaded.resize(num_patches);
+    loaded_patches.resize(num_patches);
+  }
 
   const cv::Mat1f& coarse = init_disparity[s + 1];
   const float half = 0.5f * static_cast<float>(p - 1);
