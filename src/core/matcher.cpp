@@ -77,40 +77,6 @@ void validateInputs(const cv::Mat& left, const cv::Mat& right) {
   }
 }
 
-/// Grey-level variance of a p x p template, every pixel valid (p <= 32).
-/// Sums of t - t[0], so bright, nearly flat patches lose nothing to
-/// cancellation (255 squared swamps float).
-BDIS_ROW_LOOP float templateVarianceAllValid(const float* __restrict tmpl, size_t stride, int p) {
-  const float ref = tmpl[0];
-  float s = 0.f, s2 = 0.f;
-  if (p == 8) {
-    // The default patch: a row is one 8-float vector (GCC/Clang vector
-    // extension: AVX, two SSE or NEON registers).
-    typedef float Row8 __attribute__((vector_size(32)));
-    Row8 sum = {}, sum_sq = {};
-    for (int y = 0; y < 8; ++y) {
-      Row8 v;
-      std::memcpy(&v, tmpl + static_cast<size_t>(y) * stride, sizeof v);
-      v -= ref;
-      sum += v;
-      sum_sq += v * v;
-    }
-    for (int i = 0; i < 8; ++i) s += sum[i], s2 += sum_sq[i];
-  } else {
-    for (int y = 0; y < p; ++y) {
-      const float* t = tmpl + static_cast<size_t>(y) * stride;
-      for (int x = 0; x < p; ++x) {
-        const float v = t[x] - ref;
-        s += v;
-        s2 += v * v;
-      }
-    }
-  }
-  const float count = static_cast<float>(p * p);
-  const float mean = s / count;
-  return std::max(0.f, s2 / count - mean * mean);
-}
-
 }  // namespace
 
 /// Result of one patch at one level.
@@ -171,7 +137,8 @@ struct SearchPass {
     const float* right_rows = nullptr;  ///< right image, column 0 of row y0
     size_t right_stride = 0;
     int width = 0;  ///< of the level
-    float g_sum = 0.f, g_sq_sum = 0.f;
+    /// Sums of gx and gx^2 and the template variance; only when left_all_valid.
+    detail::TemplateSums constants{};
   } cur;
   std::vector<uchar> patch_loaded;
   std::vector<CurrentPatch> loaded_patches;  ///< as the forward pass loaded them, for the backward one
@@ -423,18 +390,17 @@ bool SearchPass::loadPatch(const PyramidLevel& L, int x0, int y0) {
   if (static_cast<float>(pp - left_invalid) < params.min_valid_share * static_cast<float>(pp)) {
     return false;  // mostly outside the rectified view
   }
-  cur = {&L,
-         x0,
-         y0,
-         {L.left[y0] + x0, L.left_gx[y0] + x0, rowStride(L.left)},
-         L.left_valid[y0] + x0,
-         left_invalid == 0,
-         left_invalid == 0 && L.right_all_valid,
-         L.right[y0],
-         rowStride(L.right),
-         L.width,
-         static_cast<float>(rectSum(L.gx_sum, x0, y0, x0 + p, y0 + p)),
-         static_cast<float>(rectSum(L.gx_sq_sum, x0, y0, x0 + p, y0 + p))};
+  cur.level = &L;
+  cur.x0 = x0;
+  cur.y0 = y0;
+  cur.view = {L.left[y0] + x0, L.left_gx[y0] + x0, rowStride(L.left)};
+  cur.valid = L.left_valid[y0] + x0;
+  cur.left_all_valid = left_invalid == 0;
+  cur.no_invalid_pixels = cur.left_all_valid && L.right_all_valid;
+  cur.right_rows = L.right[y0];
+  cur.right_stride = rowStride(L.right);
+  cur.width = L.width;
+  if (cur.left_all_valid) kernels->template_sums(p, cur.view, cur.constants);
   return true;
 }
 
@@ -446,8 +412,8 @@ void SearchPass::patchSums(float u, ResidualSums& r, bool with_gradient) {
   if (cur.no_invalid_pixels && span.base >= 0 && span.base + p < cur.width) {
     (with_gradient ? kernels->sums_all_valid : kernels->sums_all_valid_no_gradient)(
         cur.right_rows, cur.right_stride, p, span, cur.view, r);
-    r.g = cur.g_sum;
-    r.g_sq = cur.g_sq_sum;
+    r.g = cur.constants.g;
+    r.g_sq = cur.constants.g_sq;
     return;
   }
   patchSumsNearInvalidOrEdge(span, r, with_gradient);
@@ -466,8 +432,8 @@ void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r, bo
       rectSum(L.right_invalid, span.base, cur.y0, span.base + p + 1, cur.y0 + p) == 0) {
     (with_gradient ? kernels->sums_all_valid : kernels->sums_all_valid_no_gradient)(
         cur.right_rows, cur.right_stride, p, span, cur.view, r);
-    r.g = cur.g_sum;
-    r.g_sq = cur.g_sq_sum;
+    r.g = cur.constants.g;
+    r.g_sq = cur.constants.g_sq;
     return;
   }
   // Near or past the image edge: sum over the columns inside it, if those are valid.
@@ -485,8 +451,8 @@ void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r, bo
 
 float SearchPass::templateVariance() const {
   const int p = params.patch_size;
-  if (cur.left_all_valid) return templateVarianceAllValid(cur.view.tmpl, cur.view.stride, p);
-  const float ref = cur.view.tmpl[0];  // sums of t - t[0]: see templateVarianceAllValid
+  if (cur.left_all_valid) return cur.constants.variance;
+  const float ref = cur.view.tmpl[0];  // sums of t - t[0]: see detail::templateSums
   const size_t valid_stride = cur.level->left_valid.step1();
   float sum = 0.f, sum_sq = 0.f, count = 0.f;
   for (int y = 0; y < p; ++y) {

@@ -14,9 +14,14 @@ const KernelSet* avx2KernelsFor(int patch_size);
 #endif
 
 namespace {
-constexpr KernelSet kScalar{"scalar",           &sumsAllValid, &sumsAllValidNoGradient,
-                            &sumsClipped,       &windowCostsAllValid,
-                            &sumsMasked,        &accumulatePatch};
+constexpr KernelSet kScalar{"scalar",
+                            &sumsAllValid,
+                            &sumsAllValidNoGradient,
+                            &sumsClipped,
+                            &windowCostsAllValid,
+                            &sumsMasked,
+                            &accumulatePatch,
+                            &templateSums};
 
 bool cpuHasAvx2() {
 #if defined(BDIS_HAVE_AVX2_KERNELS) && (defined(__GNUC__) || defined(__clang__))

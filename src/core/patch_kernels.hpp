@@ -57,6 +57,37 @@ struct PatchView {
   size_t stride;
 };
 
+/// What stays constant over a patch's search when every template pixel is
+/// valid: the sums of gx and gx^2 (the parts of the 1-D Hessian) and the
+/// template's grey-level variance (the residual test's yardstick).
+struct TemplateSums {
+  float g = 0;         ///< sum gx
+  float g_sq = 0;      ///< sum gx^2
+  float variance = 0;  ///< of the grey values, >= 0
+};
+
+/// TemplateSums of a p x p template, every pixel valid. Grey values enter as
+/// t - t[0], so bright, nearly flat patches lose nothing to cancellation
+/// (255 squared swamps float).
+inline void templateSums(int p, const PatchView& patch, TemplateSums& out) {
+  const float ref = patch.tmpl[0];
+  float sg = 0, sgg = 0, st = 0, stt = 0;
+  for (int y = 0; y < p; ++y) {
+    const float* t = patch.tmpl + y * patch.stride;
+    const float* g = patch.grad + y * patch.stride;
+    for (int i = 0; i < p; ++i) {
+      const float v = t[i] - ref;
+      sg += g[i];
+      sgg += g[i] * g[i];
+      st += v;
+      stt += v * v;
+    }
+  }
+  const float count = static_cast<float>(p * p);
+  const float mean = st / count;
+  out = {sg, sgg, std::max(0.f, stt / count - mean * mean)};
+}
+
 /// Interpolates `len` samples of a right-image row starting at column `base`.
 inline void interpolateRow(const float* row, int base, float frac, int len, float* out) {
   const float w0 = 1.f - frac;
@@ -265,6 +296,7 @@ struct KernelSet {
                       size_t mask_stride, ResidualSums& out);
   void (*accumulate_patch)(int p, const float* spatial, float posterior, float disparity,
                            float evidence, float* num, float* den, float* conf, size_t stride);
+  void (*template_sums)(int p, const PatchView& patch, TemplateSums& out);
 };
 
 /// Columns every right-image row of the pyramid has readable (and zero) on

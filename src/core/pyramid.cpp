@@ -116,27 +116,6 @@ BDIS_ROW_LOOP void mirror(const cv::Mat_<T>& src, cv::Mat_<T>& dst) {
   }
 }
 
-/// Integral images of gx and gx^2 in one pass.
-void gradientIntegrals(const cv::Mat1f& gx, cv::Mat1d& sum, cv::Mat1d& sq_sum) {
-  const int w = gx.cols;
-  std::fill(sum[0], sum[0] + w + 1, 0.0);
-  std::fill(sq_sum[0], sq_sum[0] + w + 1, 0.0);
-  for (int y = 0; y < gx.rows; ++y) {
-    const float* g = gx[y];
-    const double *above = sum[y], *above_sq = sq_sum[y];
-    double *out = sum[y + 1], *out_sq = sq_sum[y + 1];
-    out[0] = out_sq[0] = 0.0;
-    double row = 0.0, row_sq = 0.0;
-    for (int x = 0; x < w; ++x) {
-      const double v = g[x];
-      row += v;
-      row_sq += v * v;
-      out[x + 1] = above[x + 1] + row;
-      out_sq[x + 1] = above_sq[x + 1] + row_sq;
-    }
-  }
-}
-
 /// Integral image of the invalid pixels; all zeros, without the running
 /// sums, when every pixel is valid (rectified views usually have no border;
 /// `all_zero` remembers that, so a stream of such frames writes it once).
@@ -172,9 +151,8 @@ bool invalidCountIntegral(const cv::Mat1b& valid, cv::Mat1i& sum, bool& all_zero
   return false;
 }
 
-void buildGradientAndIntegrals(PyramidLevel& l) {
+void buildGradientAndValidityIntegrals(PyramidLevel& l) {
   horizontalGradient(l.left, l.left_valid, l.left_gx);
-  gradientIntegrals(l.left_gx, l.gx_sum, l.gx_sq_sum);
   invalidCountIntegral(l.left_valid, l.left_invalid, l.left_invalid_all_zero);
   l.right_all_valid = invalidCountIntegral(l.right_valid, l.right_invalid, l.right_invalid_all_zero);
 }
@@ -196,8 +174,6 @@ void allocate(PyramidLevel& l, int w, int h) {
     l.right_valid_padded.setTo(0);
     l.right_valid = l.right_valid_padded.colRange(kRightPadding, kRightPadding + w);
   }
-  l.gx_sum.create(h + 1, w + 1);
-  l.gx_sq_sum.create(h + 1, w + 1);
   if (l.left_invalid.rows != h + 1 || l.left_invalid.cols != w + 1) {
     l.left_invalid_all_zero = l.right_invalid_all_zero = false;  // new buffers
   }
@@ -235,7 +211,7 @@ void StereoPyramid::build(const cv::Mat& left, const cv::Mat& right, int num_lev
     downsample(fine.left, fine.left_valid, coarse.left, coarse.left_valid);
     downsample(fine.right, fine.right_valid, coarse.right, coarse.right_valid);
   }
-  for (int s = first_searched_level; s < num_levels; ++s) buildGradientAndIntegrals(levels_[s]);
+  for (int s = first_searched_level; s < num_levels; ++s) buildGradientAndValidityIntegrals(levels_[s]);
 }
 
 void StereoPyramid::buildMirrored(const StereoPyramid& src, int num_levels,
@@ -250,7 +226,7 @@ void StereoPyramid::buildMirrored(const StereoPyramid& src, int num_levels,
     mirror(from.left, l.right);
     mirror(from.right_valid, l.left_valid);
     mirror(from.left_valid, l.right_valid);
-    buildGradientAndIntegrals(l);
+    buildGradientAndValidityIntegrals(l);
   }
 }
 

@@ -1,5 +1,5 @@
-// Image pyramid for the matcher: grey float images, validity masks and the
-// integral images that make per-patch sums O(1). Every buffer is sized once
+// Image pyramid for the matcher: grey float images, gradients, validity masks
+// and the integral images of invalid pixels that pick a patch's fast path. Every buffer is sized once
 // per input size; build() on a frame of the same size allocates nothing.
 #pragma once
 
@@ -23,9 +23,8 @@ struct PyramidLevel {
   cv::Mat1b left_valid;  ///< 1 where the pixel lies inside the rectified view
   cv::Mat1b right_valid;  ///< a view into right_valid_padded: kRightPadding columns of 0 each side
   cv::Mat1b right_valid_padded;
-  // Integral images ((h+1) x (w+1)), used by the all-valid fast path.
-  cv::Mat1d gx_sum;         ///< sum of gx
-  cv::Mat1d gx_sq_sum;      ///< sum of gx^2 (the 1-D Hessian)
+  // Integral images ((h+1) x (w+1)) of the invalid pixels: which patches
+  // and spans may take the all-valid paths.
   cv::Mat1i left_invalid;   ///< count of invalid left pixels
   cv::Mat1i right_invalid;  ///< count of invalid right pixels
   bool right_all_valid = false;  ///< no invalid right pixel: right_invalid is all 0

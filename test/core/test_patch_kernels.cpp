@@ -154,6 +154,44 @@ TEST(PatchKernels, EveryIsaAgreesWithTheReference) {
   EXPECT_STREQ(kernelsFor(10, KernelIsa::Baseline).name, "scalar");
 }
 
+// Every kernel set's template constants (sum gx, sum gx^2, grey-level
+// variance) against double-precision sums, on bright, nearly flat templates
+// too, where a variance from plain sums of squares would cancel in float.
+TEST(PatchKernels, EveryIsaTemplateSumsMatchTheReference) {
+  cv::RNG rng(21);
+  int sets_checked = 0;
+  for (KernelIsa isa : {KernelIsa::Scalar, KernelIsa::Baseline, KernelIsa::Avx2}) {
+    if (!kernelIsaAvailable(isa)) continue;
+    for (int p : {4, 8, 16, 32, 10}) {
+      const KernelSet& k = kernelsFor(p, isa);
+      ++sets_checked;
+      const int stride = p + 5;  // rows of a wider level
+      for (const auto& [lo, hi] : {std::pair<float, float>{0.f, 255.f}, {250.f, 250.5f}}) {
+        std::vector<float> T(static_cast<size_t>(stride * p)), G(T.size());
+        for (float& t : T) t = rng.uniform(lo, hi);
+        for (float& g : G) g = rng.uniform(-40.f, 40.f);
+        double sg = 0, sgg = 0, st = 0, stt = 0;
+        for (int y = 0; y < p; ++y) {
+          for (int x = 0; x < p; ++x) {
+            const double t = T[static_cast<size_t>(y * stride + x)], g = G[static_cast<size_t>(y * stride + x)];
+            sg += g, sgg += g * g, st += t, stt += t * t;
+          }
+        }
+        const double n = p * p, variance = stt / n - (st / n) * (st / n);
+        TemplateSums got;
+        k.template_sums(p, PatchView{T.data(), G.data(), static_cast<size_t>(stride)}, got);
+        const std::string where = std::string(k.name) + " p=" + std::to_string(p) + " grey " +
+                                  std::to_string(lo) + ".." + std::to_string(hi);
+        EXPECT_NEAR(got.g, sg, 1e-4 * n * 40) << where;
+        EXPECT_NEAR(got.g_sq, sgg, 1e-5 * sgg) << where;
+        EXPECT_NEAR(got.variance, variance, 1e-3 * variance + 1e-6) << where;
+        EXPECT_GT(got.variance, 0.f) << where;
+      }
+    }
+  }
+  EXPECT_GE(sets_checked, 10);
+}
+
 // Every kernel set's fusion of a patch adds what the scalar loop adds (up to
 // the rounding of a fused multiply-add), on rows of a wider image.
 TEST(PatchKernels, EveryIsaAccumulatesAPatchLikeTheScalarLoop) {
