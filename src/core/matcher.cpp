@@ -150,6 +150,10 @@ struct SearchPass {
   void patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r, bool with_gradient);
   /// Mean squared residual at disparity u (mean-normalised if enabled); +inf without pixels.
   float patchCost(float u, float* valid_count = nullptr);
+  /// patchCost at n <= kMaxBatchSpans disparities, in one pass over the
+  /// template when all of them take the fast path.
+  void patchCosts(const float* u, int n, float* costs);
+  float meanSquaredResidual(const ResidualSums& r) const;
   /// Grey-level variance of the current patch's valid template pixels.
   float templateVariance() const;
   float refinePatch(float u_start);
@@ -162,7 +166,9 @@ struct SearchPass {
     const float half_span = static_cast<float>(params.window_half_width) * params.window_step;
     return 4.f * half_span * half_span;
   }
-  bool adoptIfBetter(float candidate, float& u, float& best_cost);
+  /// Spatial propagation (DIS): in order, each candidate (a neighbour's
+  /// disparity) replaces u when its cost is lower. True when u changed.
+  bool propagate(float& u, const float* candidates, int n);
   void fuseLevel(int s, bool finest);
   void upsampleToFull(int s, MatchResult& out);
 };
@@ -337,11 +343,13 @@ void SearchPass::matchLevel(int s, bool finest) {
       if (!patch_loaded[k]) continue;
       loaded_patches[k] = cur;
       if (params.propagation) {
-        float best = kNaN;  // the cost at u, computed when first needed
-        if (ix > 0 && patch_loaded[k - 1]) adoptIfBetter(patches[k - 1].disparity, u, best);
+        float candidates[2];
+        int n = 0;
+        if (ix > 0 && patch_loaded[k - 1]) candidates[n++] = patches[k - 1].disparity;
         if (iy > 0 && patch_loaded[k - static_cast<size_t>(nx)]) {
-          adoptIfBetter(patches[k - static_cast<size_t>(nx)].disparity, u, best);
+          candidates[n++] = patches[k - static_cast<size_t>(nx)].disparity;
         }
+        propagate(u, candidates, n);
       }
       patches[k].disparity = refinePatch(u);
     }
@@ -355,13 +363,13 @@ void SearchPass::matchLevel(int s, bool finest) {
       cur = loaded_patches[k];
       float u = patches[k].disparity;
       if (params.propagation) {
-        float best = kNaN;
-        bool moved = false;
-        if (ix + 1 < nx && patch_loaded[k + 1]) moved |= adoptIfBetter(patches[k + 1].disparity, u, best);
+        float candidates[2];
+        int n = 0;
+        if (ix + 1 < nx && patch_loaded[k + 1]) candidates[n++] = patches[k + 1].disparity;
         if (iy + 1 < ny && patch_loaded[k + static_cast<size_t>(nx)]) {
-          moved |= adoptIfBetter(patches[k + static_cast<size_t>(nx)].disparity, u, best);
+          candidates[n++] = patches[k + static_cast<size_t>(nx)].disparity;
         }
-        if (moved) u = refinePatch(u);
+        if (propagate(u, candidates, n)) u = refinePatch(u);
       }
       patches[k] = patchPosterior(u);
     }
@@ -369,18 +377,40 @@ void SearchPass::matchLevel(int s, bool finest) {
   fuseLevel(s, finest);
 }
 
-bool SearchPass::adoptIfBetter(float candidate, float& u, float& best_cost) {
-  // A neighbour's disparity this close to the patch's own is not worth a
-  // cost: the refinement would end where it ends from u (the scores on the
-  // colon and generated sequences do not change).
+bool SearchPass::propagate(float& u, const float* candidates, int n) {
+  // A candidate this close to the current choice is not worth a cost: the
+  // refinement would end where it ends from there (the scores on the colon
+  // and generated sequences do not change).
   constexpr float kMinCandidateDistance = 0.1f;
-  if (std::fabs(candidate - u) < kMinCandidateDistance) return false;
-  if (std::isnan(best_cost)) best_cost = patchCost(u);  // only once some candidate is tried
-  const float c = patchCost(candidate);
-  if (!(c < best_cost)) return false;
-  u = candidate;
-  best_cost = c;
-  return true;
+  auto far = [](float a, float b) { return std::fabs(a - b) >= kMinCandidateDistance; };
+  // The costs the rule below may compare, in one batch: u's, and each
+  // candidate's that is far from u or from an earlier candidate (which may
+  // have replaced u by then).
+  float values[detail::kMaxBatchSpans] = {u};
+  int slot[2] = {-1, -1};
+  int m = 1;
+  for (int i = 0; i < n; ++i) {
+    bool may_be_tried = far(candidates[i], u);
+    for (int j = 0; j < i; ++j) may_be_tried |= slot[j] >= 0 && far(candidates[i], candidates[j]);
+    if (may_be_tried) {
+      slot[i] = m;
+      values[m++] = candidates[i];
+    }
+  }
+  if (m == 1) return false;
+  float costs[detail::kMaxBatchSpans];
+  patchCosts(values, m, costs);
+  float best = costs[0];
+  bool moved = false;
+  for (int i = 0; i < n; ++i) {
+    if (!far(candidates[i], u)) continue;  // else slot[i] >= 0
+    const float c = costs[slot[i]];
+    if (!(c < best)) continue;
+    u = candidates[i];
+    best = c;
+    moved = true;
+  }
+  return moved;
 }
 
 bool SearchPass::loadPatch(const PyramidLevel& L, int x0, int y0) {
@@ -471,13 +501,34 @@ float SearchPass::templateVariance() const {
   return std::max(0.f, sum_sq / count - mean * mean);
 }
 
+float SearchPass::meanSquaredResidual(const ResidualSums& r) const {
+  if (r.count <= 0.f) return std::numeric_limits<float>::infinity();
+  const float mean = r.diff / r.count;
+  return r.diff_sq / r.count - (params.mean_normalization ? mean * mean : 0.f);
+}
+
 float SearchPass::patchCost(float u, float* valid_count) {
   ResidualSums r;
   patchSums(u, r, /*with_gradient=*/false);
   if (valid_count) *valid_count = r.count;
-  if (r.count <= 0.f) return std::numeric_limits<float>::infinity();
-  const float mean = r.diff / r.count;
-  return r.diff_sq / r.count - (params.mean_normalization ? mean * mean : 0.f);
+  return meanSquaredResidual(r);
+}
+
+void SearchPass::patchCosts(const float* u, int n, float* costs) {
+  const int p = params.patch_size;
+  SampleSpan spans[detail::kMaxBatchSpans] = {};
+  bool fast = cur.no_invalid_pixels;  // patchSums's fast path for every span
+  for (int i = 0; i < n; ++i) {
+    spans[i] = detail::sampleSpan(cur.x0, u[i]);
+    fast &= spans[i].base >= 0 && spans[i].base + p < cur.width;
+  }
+  if (!fast) {
+    for (int i = 0; i < n; ++i) costs[i] = patchCost(u[i]);
+    return;
+  }
+  ResidualSums r[detail::kMaxBatchSpans];
+  kernels->sums_no_gradient_batch(cur.right_rows, cur.right_stride, p, spans, n, cur.view, r);
+  for (int i = 0; i < n; ++i) costs[i] = meanSquaredResidual(r[i]);
 }
 
 float SearchPass::refinePatch(float u_start) {

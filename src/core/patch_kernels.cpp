@@ -17,6 +17,7 @@ namespace {
 constexpr KernelSet kScalar{"scalar",
                             &sumsAllValid,
                             &sumsAllValidNoGradient,
+                            &sumsAllValidNoGradientBatch,
                             &sumsClipped,
                             &windowCostsAllValid,
                             &sumsMasked,

@@ -141,6 +141,18 @@ inline void sumsAllValidNoGradient(const float* rows, size_t stride, int p, Samp
   out.g_diff = 0.f;
 }
 
+/// Most spans one call of sums_no_gradient_batch takes: a patch's own
+/// disparity and its two neighbours' (spatial propagation).
+constexpr int kMaxBatchSpans = 3;
+
+/// sumsAllValidNoGradient at `n` (1..kMaxBatchSpans) spans of the same
+/// template, each under the fast path's conditions, into out[0..n).
+inline void sumsAllValidNoGradientBatch(const float* rows, size_t stride, int p,
+                                        const SampleSpan* spans, int n, const PatchView& patch,
+                                        ResidualSums* out) {
+  for (int i = 0; i < n; ++i) sumsAllValidNoGradient(rows, stride, p, spans[i], patch, out[i]);
+}
+
 /// Window fast path: the costs of `samples` disparities a whole number of
 /// pixels (`step`) apart, which share one interpolation weight. Sample j reads
 /// the right patch at column base_lo + step * (samples - 1 - j), so one
@@ -286,6 +298,10 @@ struct KernelSet {
                          const PatchView& patch, ResidualSums& out);
   void (*sums_all_valid_no_gradient)(const float* rows, size_t stride, int p, SampleSpan span,
                                      const PatchView& patch, ResidualSums& out);
+  /// The same sums, bit for bit, at up to kMaxBatchSpans spans: the template
+  /// is read once and the spans' accumulators run side by side.
+  void (*sums_no_gradient_batch)(const float* rows, size_t stride, int p, const SampleSpan* spans,
+                                 int n, const PatchView& patch, ResidualSums* out);
   void (*sums_clipped)(const float* rows, size_t stride, int p, SampleSpan span, ColumnRange cols,
                        const PatchView& patch, ResidualSums& out);
   void (*window_costs)(const float* rows, size_t stride, int p, int base_lo, float frac, int samples,

@@ -135,6 +135,20 @@ TEST(PatchKernels, EveryIsaAgreesWithTheReference) {
         EXPECT_EQ(cost.count, r.count) << k.name << " p=" << p;
         EXPECT_EQ(cost.diff, r.diff) << k.name << " p=" << p << " u=" << u;
         EXPECT_EQ(cost.diff_sq, r.diff_sq) << k.name << " p=" << p << " u=" << u;
+        // Up to three spans at once (propagation's costs): each as sums_all_valid_no_gradient gives it.
+        const SampleSpan spans[kMaxBatchSpans] = {span, sampleSpan(x0, static_cast<float>(u) + 0.4f),
+                                                  sampleSpan(x0, static_cast<float>(u) - 3.7f)};
+        for (int count = 1; count <= kMaxBatchSpans; ++count) {
+          ResidualSums batch[kMaxBatchSpans];
+          k.sums_no_gradient_batch(right[y0], right.step1(), p, spans, count, view, batch);
+          for (int i = 0; i < count; ++i) {
+            ResidualSums single;
+            k.sums_all_valid_no_gradient(right[y0], right.step1(), p, spans[i], view, single);
+            EXPECT_EQ(batch[i].count, single.count) << k.name << " p=" << p << " span " << i << " of " << count;
+            EXPECT_EQ(batch[i].diff, single.diff) << k.name << " p=" << p << " span " << i << " of " << count;
+            EXPECT_EQ(batch[i].diff_sq, single.diff_sq) << k.name << " p=" << p << " span " << i << " of " << count;
+          }
+        }
         const SampleSpan lo = sampleSpan(x0, static_cast<float>(u + n * step));
         k.window_costs(right[y0], right.step1(), p, lo.base, lo.frac, samples, step, view, true,
                        row.data(), sum.data(), sum_sq.data(), costs.data());
