@@ -275,23 +275,35 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   m.left_pass.upsampleToFull(finest, result);
 }
 
+namespace {
+
+/// One row of the left-right check: a left estimate whose match column
+/// (rounded) has no estimate in the mirrored right-reference row, or one
+/// more than `tolerance` away, is dropped. Branch-free, so it vectorises.
+BDIS_ROW_LOOP
+void leftRightCheckRow(int w, const float* __restrict mirrored, float tolerance,
+                       float* __restrict disparity, float* __restrict confidence) {
+  for (int x = 0; x < w; ++x) {
+    const float d = disparity[x];
+    const float match = static_cast<float>(x) - d + 0.5f;
+    // Truncation is floor for match >= 0; d < 0 (no estimate) reads column w - 1, unused.
+    const int xr = std::min(static_cast<int>(std::max(match, 0.f)), w - 1);
+    const float back = mirrored[w - 1 - xr];
+    const bool refuted =
+        (d >= 0.f) & ((match < 0.f) | (back < 0.f) | (std::fabs(back - d) > tolerance));
+    disparity[x] = refuted ? kNoDisparity : d;
+    confidence[x] = refuted ? 0.f : confidence[x];
+  }
+}
+
+}  // namespace
+
 void Matcher::Impl::leftRightCheck(float tolerance) {
-  cv::Mat1f& d = left_pass.level_disparity;
-  const cv::Mat1f& mirrored = right_pass.level_disparity;
   const int w = left_pass.pyramid.level(left_pass.params.finest_level).width;
   const int h = left_pass.pyramid.level(left_pass.params.finest_level).height;
   for (int y = 0; y < h; ++y) {
-    float* dl = d[y];
-    const float* dr = mirrored[y];
-    for (int x = 0; x < w; ++x) {
-      if (dl[x] < 0.f) continue;
-      const int xr = static_cast<int>(std::floor(static_cast<float>(x) - dl[x] + 0.5f));
-      const float back = xr >= 0 ? dr[w - 1 - xr] : kNoDisparity;
-      if (back < 0.f || std::fabs(back - dl[x]) > tolerance) {
-        dl[x] = kNoDisparity;
-        left_pass.level_confidence(y, x) = 0.f;
-      }
-    }
+    leftRightCheckRow(w, right_pass.level_disparity[y], tolerance, left_pass.level_disparity[y],
+                      left_pass.level_confidence[y]);
   }
 }
 
