@@ -7,50 +7,74 @@ namespace bdis {
 namespace detail {
 namespace {
 
-// Grey level 0 and validity of one 8-bit image. A pixel is outside the
-// rectified view when every channel is 0; judged on the input, not on the
-// grey value, so a very dark but real pixel stays valid. Colour goes through
-// planes (`planes`, 3 sized by the caller) so that both loops vectorise.
+// Validity of one 8-bit image: a pixel is outside the rectified view when
+// every channel is 0; judged on the input, not on the grey value, so a very
+// dark but real pixel stays valid.
 BDIS_ROW_LOOP
-void toGrey(const cv::Mat& src, cv::Mat* planes, cv::Mat1f& grey, cv::Mat1b& valid) {
+void validityOfMono(const cv::Mat& src, cv::Mat1b& valid) {
   const int w = src.cols;  // not re-read in loops whose byte stores might alias it
-  if (src.channels() == 1) {
-    for (int y = 0; y < src.rows; ++y) {
-      const uchar* s = src.ptr<uchar>(y);
-      float* g = grey[y];
-      uchar* v = valid[y];
-      for (int x = 0; x < w; ++x) {
-        g[x] = s[x];
-        v[x] = s[x] != 0;
-      }
-    }
-    return;
+  for (int y = 0; y < src.rows; ++y) {
+    const uchar* s = src.ptr<uchar>(y);
+    uchar* v = valid[y];
+    for (int x = 0; x < w; ++x) v[x] = s[x] != 0;
   }
+}
+
+// Luma and validity of a BGR image. Colour goes through planes (`planes`, 3
+// sized by the caller) so that the loop vectorises. Luma is a whole number:
+// kept in 8 bits, a quarter of the memory traffic of floats.
+BDIS_ROW_LOOP
+void lumaOfBgr(const cv::Mat& src, cv::Mat* planes, cv::Mat1b& grey, cv::Mat1b& valid) {
+  const int w = src.cols;
   cv::split(src, planes);
   for (int y = 0; y < src.rows; ++y) {
     const uchar* b = planes[0].ptr<uchar>(y);
     const uchar* gr = planes[1].ptr<uchar>(y);
     const uchar* r = planes[2].ptr<uchar>(y);
-    float* g = grey[y];
+    uchar* g = grey[y];
     uchar* v = valid[y];
     for (int x = 0; x < w; ++x) {
       // Rec. 601 luma in 8.8 fixed point (within 1 grey level of cv::cvtColor).
       const uint16_t luma = static_cast<uint16_t>(29 * b[x] + 150 * gr[x] + 77 * r[x] + 128);
-      g[x] = static_cast<float>(luma >> 8);
+      g[x] = static_cast<uchar>(luma >> 8);
       v[x] = (b[x] | gr[x] | r[x]) != 0;
     }
   }
 }
 
-// 2x2 box average; a coarse pixel is valid only when all four fine ones are,
-// so black borders never bleed into darker-than-real tissue values.
+/// The grey image of an 8-bit mono or BGR input and its validity: the input
+/// itself when it is mono, else `luma` (owned by the pyramid) filled.
+cv::Mat1b greyAndValidity(const cv::Mat& src, cv::Mat* planes, cv::Mat1b& luma, cv::Mat1b& valid) {
+  if (src.channels() == 1) {
+    validityOfMono(src, valid);
+    return src;
+  }
+  luma.create(src.size());
+  lumaOfBgr(src, planes, luma, valid);
+  return luma;
+}
+
 BDIS_ROW_LOOP
-void downsample(const cv::Mat1f& fine, const cv::Mat1b& fine_valid, cv::Mat1f& coarse,
-                cv::Mat1b& coarse_valid) {
+void toFloat(const cv::Mat1b& src, cv::Mat1f& dst) {
+  const int w = src.cols;
+  for (int y = 0; y < src.rows; ++y) {
+    const uchar* s = src[y];
+    float* d = dst[y];
+    for (int x = 0; x < w; ++x) d[x] = s[x];
+  }
+}
+
+// 2x2 box average (of 8-bit grey or of a float level: the sum of four whole
+// numbers is exact either way, so both give the same values); a coarse pixel
+// is valid only when all four fine ones are, so black borders never bleed
+// into darker-than-real tissue values.
+template <typename T>
+BDIS_ROW_LOOP void downsample(const cv::Mat_<T>& fine, const cv::Mat1b& fine_valid, cv::Mat1f& coarse,
+                              cv::Mat1b& coarse_valid) {
   const int w = coarse.cols;
   for (int y = 0; y < coarse.rows; ++y) {
-    const float* f0 = fine[2 * y];
-    const float* f1 = fine[2 * y + 1];
+    const T* f0 = fine[2 * y];
+    const T* f1 = fine[2 * y + 1];
     const uchar* v0 = fine_valid[2 * y];
     const uchar* v1 = fine_valid[2 * y + 1];
     float* c = coarse[y];
@@ -157,16 +181,12 @@ void buildGradientAndValidityIntegrals(PyramidLevel& l) {
   l.right_all_valid = invalidCountIntegral(l.right_valid, l.right_invalid, l.right_invalid_all_zero);
 }
 
-void allocate(PyramidLevel& l, int w, int h) {
+/// Level buffers; a level that is not searched needs no gradient or
+/// integral images, and level 0 needs only its validity when it is not
+/// searched (the grey input is downsampled straight to level 1).
+void allocate(PyramidLevel& l, int w, int h, int s, bool searched) {
   l.width = w;
   l.height = h;
-  l.left.create(h, w);
-  if (l.right_padded.rows != h || l.right_padded.cols != w + 2 * kRightPadding) {
-    l.right_padded.create(h, w + 2 * kRightPadding);
-    l.right_padded.setTo(0.f);  // only the padding stays 0; the view is rewritten per frame
-    l.right = l.right_padded.colRange(kRightPadding, kRightPadding + w);
-  }
-  l.left_gx.create(h, w);
   l.left_valid.create(h, w);
   if (l.right_valid_padded.rows != h || l.right_valid_padded.cols != w + 2 * kRightPadding) {
     // Outside the image counts as invalid: the masked kernels read the padding.
@@ -174,6 +194,15 @@ void allocate(PyramidLevel& l, int w, int h) {
     l.right_valid_padded.setTo(0);
     l.right_valid = l.right_valid_padded.colRange(kRightPadding, kRightPadding + w);
   }
+  if (s == 0 && !searched) return;
+  l.left.create(h, w);
+  if (l.right_padded.rows != h || l.right_padded.cols != w + 2 * kRightPadding) {
+    l.right_padded.create(h, w + 2 * kRightPadding);
+    l.right_padded.setTo(0.f);  // only the padding stays 0; the view is rewritten per frame
+    l.right = l.right_padded.colRange(kRightPadding, kRightPadding + w);
+  }
+  if (!searched) return;
+  l.left_gx.create(h, w);
   if (l.left_invalid.rows != h + 1 || l.left_invalid.cols != w + 1) {
     l.left_invalid_all_zero = l.right_invalid_all_zero = false;  // new buffers
   }
@@ -197,19 +226,28 @@ void StereoPyramid::build(const cv::Mat& left, const cv::Mat& right, int num_lev
   levels_.resize(static_cast<size_t>(num_levels));  // no-op once sized
   for (int s = 0; s < num_levels; ++s) {
     // Mat::create is a no-op when size and type are unchanged.
-    allocate(levels_[s], left.cols >> s, left.rows >> s);
+    allocate(levels_[s], left.cols >> s, left.rows >> s, s, s >= first_searched_level);
   }
   PyramidLevel& base = levels_[0];
   if (left.channels() == 3) {
     for (cv::Mat& plane : colour_planes_) plane.create(left.size(), CV_8UC1);
   }
-  toGrey(left, colour_planes_, base.left, base.left_valid);
-  toGrey(right, colour_planes_, base.right, base.right_valid);
+  const cv::Mat1b grey_left = greyAndValidity(left, colour_planes_, luma_[0], base.left_valid);
+  const cv::Mat1b grey_right = greyAndValidity(right, colour_planes_, luma_[1], base.right_valid);
+  if (first_searched_level == 0) {
+    toFloat(grey_left, base.left);
+    toFloat(grey_right, base.right);
+  }
   for (int s = 1; s < num_levels; ++s) {
     const PyramidLevel& fine = levels_[s - 1];
     PyramidLevel& coarse = levels_[s];
-    downsample(fine.left, fine.left_valid, coarse.left, coarse.left_valid);
-    downsample(fine.right, fine.right_valid, coarse.right, coarse.right_valid);
+    if (s == 1) {
+      downsample(grey_left, fine.left_valid, coarse.left, coarse.left_valid);
+      downsample(grey_right, fine.right_valid, coarse.right, coarse.right_valid);
+    } else {
+      downsample(fine.left, fine.left_valid, coarse.left, coarse.left_valid);
+      downsample(fine.right, fine.right_valid, coarse.right, coarse.right_valid);
+    }
   }
   for (int s = first_searched_level; s < num_levels; ++s) buildGradientAndValidityIntegrals(levels_[s]);
 }
@@ -221,7 +259,7 @@ void StereoPyramid::buildMirrored(const StereoPyramid& src, int num_levels,
   for (int s = first_searched_level; s < num_levels; ++s) {
     const PyramidLevel& from = src.levels_[s];
     PyramidLevel& l = levels_[s];
-    allocate(l, from.width, from.height);
+    allocate(l, from.width, from.height, s, true);
     mirror(from.right, l.left);
     mirror(from.left, l.right);
     mirror(from.right_valid, l.left_valid);

@@ -54,6 +54,7 @@ class StereoPyramid {
   std::vector<PyramidLevel> levels_;
   cv::Size size_;
   cv::Mat colour_planes_[3];  ///< B, G, R of the input being converted
+  cv::Mat1b luma_[2];         ///< grey of a colour left / right input (level 0, 8 bits)
 };
 
 /// Largest level count (>= 1) whose coarsest level still holds one patch of `patch_size`.
