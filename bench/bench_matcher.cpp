@@ -17,19 +17,22 @@
 //       each size. Thread CPU time, not wall time: on a shared machine it does
 //       not count the time other processes hold the core. --set changes the
 //       balanced rows (to time a setting before making it the default).
-//   bdis_bench --one-frame bdis_fast|bdis_balanced|bdis_accurate|dis_fast
-//       Computes the first pair of the first sequence twice and brackets the
-//       second compute with CALLGRIND_START/STOP_INSTRUMENTATION, for
+//   bdis_bench --one-frame bdis_fast|bdis_balanced|bdis_accurate|dis_fast [--pair LEFT RIGHT]
+//       Computes the first pair of the first sequence (or the pair of image
+//       files given) twice and brackets the second compute with
+//       CALLGRIND_START/STOP_INSTRUMENTATION, for
 //       `valgrind --tool=callgrind --instr-atstart=no` (instructions per frame).
 //       --set changes bdis_balanced here too.
 // Pin to one core for stable numbers: taskset -c 1 bdis_bench ...
 #include <benchmark/benchmark.h>
 
 #include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <ctime>
@@ -209,6 +212,14 @@ double threadCpuMs() {
   return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
 }
 
+/// Least-squares slope of y over x.
+double slope(const std::vector<double>& x, const std::vector<double>& y) {
+  const double n = static_cast<double>(x.size());
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (size_t i = 0; i < x.size(); ++i) sx += x[i], sy += y[i], sxx += x[i] * x[i], sxy += x[i] * y[i];
+  return (n * sxy - sx * sy) / (n * sxx - sx * sx);
+}
+
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   const size_t n = v.size();
@@ -288,13 +299,24 @@ int runTable(int rounds, bool scaling, const bdis::MatcherParams& balanced) {
     }
   }
   if (scaling) {
+    std::vector<double> log_pixels, log_ms[2];
     for (const auto& [w, h] : kScalingSizes) {
       const Pairs& pairs = scaledFrames(w, h);
       const std::vector<Method> methods{bdisMethod(balanced_name, balanced), disFastMethod()};
       // As many timed frames at every size (about 20 s in all at 1920x1080).
       const int size_rounds = std::max(3, rounds * 10 * 640 * 480 / (w * h));
+      const std::vector<double> ms = medianTimes(methods, pairs, size_rounds);
       printRows("time, generated scene (scaling)", cv::Size(w, h), pairs.size(), size_rounds,
-                methods, medianTimes(methods, pairs, size_rounds));
+                methods, ms);
+      log_pixels.push_back(std::log(static_cast<double>(w) * h));
+      for (int i = 0; i < 2; ++i) log_ms[i].push_back(std::log(ms[static_cast<size_t>(i)]));
+    }
+    // Time ~ pixels^e: e = 1 is linear; above 1 the time grows faster than the pixel count.
+    const double e_bdis = slope(log_pixels, log_ms[0]), e_dis = slope(log_pixels, log_ms[1]);
+    for (const auto& [name, e] : {std::pair<std::string, double>{balanced_name, e_bdis}, {"DIS fast", e_dis}}) {
+      std::printf("| scaling exponent e, time ~ pixels^e (least squares over the sizes above) | %s | "
+                  "320x240 .. 1920x1080 | | e = %.3f | | %.2f |\n",
+                  name.c_str(), e, e / e_dis);
     }
   }
   return 0;
@@ -302,9 +324,18 @@ int runTable(int rounds, bool scaling, const bdis::MatcherParams& balanced) {
 
 // ---- --one-frame: instructions of one compute under callgrind -----------------
 
-int runOneFrame(const std::string& which, const bdis::MatcherParams& balanced) {
+int runOneFrame(const std::string& which, const bdis::MatcherParams& balanced,
+                const std::vector<std::string>& pair) {
   cv::setNumThreads(1);
-  const Pairs bgr(frames().begin(), frames().begin() + 1);
+  Pairs bgr;
+  if (pair.empty()) {
+    bgr.push_back(frames().front());
+  } else {
+    bgr.emplace_back(cv::imread(pair[0], cv::IMREAD_COLOR), cv::imread(pair[1], cv::IMREAD_COLOR));
+    if (bgr[0].first.empty() || bgr[0].second.empty()) {
+      throw std::invalid_argument("--pair: cannot read " + pair[0] + " or " + pair[1]);
+    }
+  }
   Method method;
   Pairs input = bgr;
   if (which == "dis_fast") {
@@ -330,6 +361,7 @@ int main(int argc, char** argv) {
     bool table = false, scaling = true;
     int rounds = 5;
     std::string one_frame;
+    std::vector<std::string> pair;
     bdis::MatcherParams balanced;
     std::vector<char*> rest{argv[0]};
     for (int i = 1; i < argc; ++i) {
@@ -345,11 +377,14 @@ int main(int argc, char** argv) {
         balanced = applySet(balanced, argv[++i]);
       } else if (a == "--one-frame" && has_value) {
         one_frame = argv[++i];
+      } else if (a == "--pair" && i + 2 < argc) {
+        pair = {argv[i + 1], argv[i + 2]};
+        i += 2;
       } else {
         rest.push_back(argv[i]);
       }
     }
-    if (!one_frame.empty()) return runOneFrame(one_frame, balanced);
+    if (!one_frame.empty()) return runOneFrame(one_frame, balanced, pair);
     if (table) return runTable(rounds, scaling, balanced);
     int bench_argc = static_cast<int>(rest.size());
     benchmark::Initialize(&bench_argc, rest.data());

@@ -9,7 +9,9 @@
 #    ms per megapixel, balanced and DIS fast;
 #  - instructions per frame (valgrind callgrind, one compute of the first pair
 #    of synthetic_colon_diffuse, after a warm-up compute) for balanced and DIS
-#    fast: a measure other load on the machine does not move;
+#    fast: a measure other load on the machine does not move; the same on the
+#    generated scene at each size (frame 0, rendered by bdis_synth), per
+#    megapixel, which shows whether the work grows with the pixel count;
 #  - the node under load (scripts/bench_node.sh): the embedded sample as a bag
 #    at 60 Hz through the nodelet in a manager on one core, and through
 #    stereo_image_proc (StereoBM, SGBM) in the same run: share of frames
@@ -27,10 +29,11 @@ install_dependencies
 if [ ! -x "$BIN_DIR/bdis_bench" ] || [ ! -x "$BIN_DIR/bdis_node_bench" ]; then
   build_package
 fi
-run_node=1
+run_node=1 run_scaling=1
 args=()
 for a in "$@"; do
   if [ "$a" = "--no-node" ]; then run_node=0; else args+=("$a"); fi
+  if [ "$a" = "--no-scaling" ]; then run_scaling=0; fi
 done
 set -- "${args[@]+"${args[@]}"}"
 [ -x "$BIN_DIR/bdis_bench" ] || { log "bdis_bench was not built (is libbenchmark-dev installed?)"; exit 1; }
@@ -63,7 +66,7 @@ if ! command -v valgrind >/dev/null 2>&1; then
   [ "$run_node" = 1 ] && node_rows
   exit 0
 fi
-instructions() {  # method -> instructions of one compute
+instructions() {  # method [bdis_bench options] -> instructions of one compute
   local out
   out="$(mktemp)"
   valgrind --tool=callgrind --instr-atstart=no --callgrind-out-file="$out" \
@@ -84,4 +87,19 @@ awk -v b="$bdis" -v d="$dis" 'BEGIN {
   printf "| instructions (callgrind), first pair of synthetic_colon_diffuse | bdis balanced | 640x480 | 1 | %.1f M | %.1f M | %.2f |\n", b / 1e6, b / 1e6 / mpix, b / d
   printf "| instructions (callgrind), first pair of synthetic_colon_diffuse | DIS fast | 640x480 | 1 | %.1f M | %.1f M | 1.00 |\n", d / 1e6, d / 1e6 / mpix
 }'
+# The generated scene at each size of the scaling rows, rendered outside
+# valgrind (a 1920x1080 frame takes seconds natively, minutes under it).
+scenes="$(mktemp -d /tmp/bdis_bench_scenes.XXXXXX)"
+for size in $([ "$run_scaling" = 1 ] && echo 320x240 640x480 1280x720 1920x1080); do
+  "$BIN_DIR/bdis_synth" --out "$scenes/$size" --frames 1 --width "${size%x*}" --height "${size#*x}" >/dev/null 2>&1
+  pair=(--pair "$scenes/$size/left/000000.png" "$scenes/$size/right/000000.png")
+  bdis="$(instructions bdis_balanced "${pair[@]}" "${set_args[@]}")"
+  dis="$(instructions dis_fast "${pair[@]}")"
+  awk -v b="$bdis" -v d="$dis" -v size="$size" 'BEGIN {
+    split(size, wh, "x"); mpix = wh[1] * wh[2] / 1e6
+    printf "| instructions (callgrind), generated scene frame 0 (scaling) | bdis balanced | %s | 1 | %.1f M | %.1f M | %.2f |\n", size, b / 1e6, b / 1e6 / mpix, b / d
+    printf "| instructions (callgrind), generated scene frame 0 (scaling) | DIS fast | %s | 1 | %.1f M | %.1f M | 1.00 |\n", size, d / 1e6, d / 1e6 / mpix
+  }'
+done
+rm -rf "$scenes"
 if [ "$run_node" = 1 ]; then node_rows; fi
