@@ -53,7 +53,6 @@ class StereoPyramid {
  private:
   std::vector<PyramidLevel> levels_;
   cv::Size size_;
-  cv::Mat colour_planes_[3];  ///< B, G, R of the input being converted
   cv::Mat1b luma_[2];         ///< grey of a colour left / right input (level 0, 8 bits)
 };
 
