@@ -135,7 +135,7 @@ MatcherParams MatcherParams::preset(const std::string& name) {
   }
   if (name == "accurate") {
     // Stride 2, and the left-right check searches as densely, with the
-    // tighter tolerance: about 2.3 times the time of balanced for more
+    // tighter tolerance: about 2.5 times the time of balanced for more
     // estimates at the same error.
     p.overlap = 0.7f;
     p.lr_check_overlap = 0.7f;

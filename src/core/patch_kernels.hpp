@@ -28,7 +28,7 @@ struct ResidualSums {
   float diff = 0;     ///< sum diff
   float diff_sq = 0;  ///< sum diff^2
   float g_diff = 0;   ///< sum gx * diff
-  float g = 0;        ///< sum gx (masked path only; fast path takes it from integrals)
+  float g = 0;        ///< sum gx (masked path only; fast path takes it from the template constants)
   float g_sq = 0;     ///< sum gx^2 (masked path only)
 };
 
@@ -98,7 +98,7 @@ inline void interpolateRow(const float* row, int base, float frac, int len, floa
 /// Fast path: every template pixel valid and the right span [base, base+p]
 /// inside the image and valid. `rows` points at column 0 of the patch's first
 /// right-image row, `stride` is the row pitch in floats. Leaves g and g_sq
-/// alone (the caller has them from integral images).
+/// alone (the caller has them from templateSums).
 inline void sumsAllValid(const float* rows, size_t stride, int p, SampleSpan span,
                          const PatchView& patch, ResidualSums& out) {
   const float w0 = 1.f - span.frac, w1 = span.frac;

@@ -1,5 +1,6 @@
 // Image pyramid for the matcher: grey float images, gradients, validity masks
-// and the integral images of invalid pixels that pick a patch's fast path. Every buffer is sized once
+// and the integral images of invalid pixels that pick a patch's fast path
+// (level 0 only validity unless it is searched). Every buffer is sized once
 // per input size; build() on a frame of the same size allocates nothing.
 #pragma once
 
