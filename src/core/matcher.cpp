@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -166,8 +165,8 @@ struct SearchPass {
     const float half_span = static_cast<float>(params.window_half_width) * params.window_step;
     return 4.f * half_span * half_span;
   }
-  /// Spatial propagation (DIS): in order, each candidate (a neighbour's
-  /// disparity) replaces u when its cost is lower. True when u changed.
+  /// Spatial propagation (DIS): in order, each of the n <= 2 candidates (the
+  /// neighbours' disparities) replaces u when its cost is lower. True when u changed.
   bool propagate(float& u, const float* candidates, int n);
   void fuseLevel(int s, bool finest);
   void upsampleToFull(int s, MatchResult& out);
@@ -399,7 +398,7 @@ bool SearchPass::propagate(float& u, const float* candidates, int n) {
   // candidate's that is far from u or from an earlier candidate (which may
   // have replaced u by then).
   float values[detail::kMaxBatchSpans] = {u};
-  int slot[2] = {-1, -1};
+  int slot[detail::kMaxBatchSpans - 1] = {-1, -1};  // candidate i's index in values
   int m = 1;
   for (int i = 0; i < n; ++i) {
     bool may_be_tried = far(candidates[i], u);
