@@ -6,7 +6,8 @@
 #    fast / balanced / accurate and OpenCV DIS fast, in the same run, pinned to
 #    one core, single-threaded, and the ratio to DIS fast;
 #  - image-size scaling on generated scenes (320x240 .. 1920x1080), ms and
-#    ms per megapixel, balanced and DIS fast;
+#    ms per megapixel, balanced and DIS fast, and the exponent e of a fit
+#    time ~ pixels^e over the sizes (1 = linear);
 #  - instructions per frame (valgrind callgrind, one compute of the first pair
 #    of synthetic_colon_diffuse, after a warm-up compute) for balanced and DIS
 #    fast: a measure other load on the machine does not move; the same on the
@@ -90,6 +91,7 @@ awk -v b="$bdis" -v d="$dis" 'BEGIN {
 # The generated scene at each size of the scaling rows, rendered outside
 # valgrind (a 1920x1080 frame takes seconds natively, minutes under it).
 scenes="$(mktemp -d /tmp/bdis_bench_scenes.XXXXXX)"
+trap 'rm -rf "$scenes"' EXIT
 for size in $([ "$run_scaling" = 1 ] && echo 320x240 640x480 1280x720 1920x1080); do
   "$BIN_DIR/bdis_synth" --out "$scenes/$size" --frames 1 --width "${size%x*}" --height "${size#*x}" >/dev/null 2>&1
   pair=(--pair "$scenes/$size/left/000000.png" "$scenes/$size/right/000000.png")
@@ -101,5 +103,4 @@ for size in $([ "$run_scaling" = 1 ] && echo 320x240 640x480 1280x720 1920x1080)
     printf "| instructions (callgrind), generated scene frame 0 (scaling) | DIS fast | %s | 1 | %.1f M | %.1f M | 1.00 |\n", size, d / 1e6, d / 1e6 / mpix
   }'
 done
-rm -rf "$scenes"
 if [ "$run_node" = 1 ]; then node_rows; fi
