@@ -528,11 +528,18 @@ float SearchPass::patchCost(float u, float* valid_count) {
 void SearchPass::patchCosts(const float* u, int n, float* costs) {
   const int p = params.patch_size;
   SampleSpan spans[detail::kMaxBatchSpans] = {};
-  bool fast = cur.no_invalid_pixels;  // patchSums's fast path for every span
+  // Every span inside the image with only valid pixels: patchSums would take
+  // the all-valid kernel for each. Where the level has invalid pixels (black
+  // borders) one count over the spans' columns tells.
+  bool fast = cur.left_all_valid;
+  int lo = cur.width, hi = 0;
   for (int i = 0; i < n; ++i) {
     spans[i] = detail::sampleSpan(cur.x0, u[i]);
-    fast &= spans[i].base >= 0 && spans[i].base + p < cur.width;
+    lo = std::min(lo, spans[i].base);
+    hi = std::max(hi, spans[i].base + p + 1);
   }
+  fast = fast && lo >= 0 && hi <= cur.width &&
+         (cur.no_invalid_pixels || rectSum(cur.level->right_invalid, lo, cur.y0, hi, cur.y0 + p) == 0);
   if (!fast) {
     for (int i = 0; i < n; ++i) costs[i] = patchCost(u[i]);
     return;
