@@ -143,10 +143,18 @@ struct SearchPass {
   std::vector<CurrentPatch> loaded_patches;  ///< as the forward pass loaded them, for the backward one
   /// Loads the left patch at (x0, y0); false when too few of its pixels are valid.
   bool loadPatch(const PyramidLevel& L, int x0, int y0);
+  /// Whether the all-valid kernels may read right-image columns [lo, hi) on
+  /// the current patch's rows: every template pixel valid, the columns inside
+  /// the image and none of them invalid (one count where the level has any).
+  bool allValidColumns(int lo, int hi) const {
+    return cur.left_all_valid && lo >= 0 && hi <= cur.width &&
+           (cur.no_invalid_pixels ||
+            rectSum(cur.level->right_invalid, lo, cur.y0, hi, cur.y0 + params.patch_size) == 0);
+  }
   /// The residual sums at disparity u; g_diff only `with_gradient` (a cost alone needs none).
   void patchSums(float u, ResidualSums& r, bool with_gradient = true);
-  /// patchSums away from the common case: near the image edge or near invalid pixels.
-  void patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r, bool with_gradient);
+  /// patchSums where the all-valid kernels may not run: near the image edge or invalid pixels.
+  void patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r);
   /// Mean squared residual at disparity u (mean-normalised if enabled); +inf without pixels.
   float patchCost(float u, float* valid_count = nullptr);
   /// patchCost at n <= kMaxBatchSpans disparities, in one pass over the
@@ -448,33 +456,23 @@ bool SearchPass::loadPatch(const PyramidLevel& L, int x0, int y0) {
 void SearchPass::patchSums(float u, ResidualSums& r, bool with_gradient) {
   const int p = params.patch_size;
   const SampleSpan span = detail::sampleSpan(cur.x0, u);
-  // Fast path: the span and its right neighbour column inside the image, and
-  // no invalid pixel anywhere near (the usual case, kept short).
-  if (cur.no_invalid_pixels && span.base >= 0 && span.base + p < cur.width) {
+  // Fast path: the span and its right neighbour column inside the image and valid.
+  if (allValidColumns(span.base, span.base + p + 1)) {
     (with_gradient ? kernels->sums_all_valid : kernels->sums_all_valid_no_gradient)(
         cur.right_rows, cur.right_stride, p, span, cur.view, r);
     r.g = cur.constants.g;
     r.g_sq = cur.constants.g_sq;
     return;
   }
-  patchSumsNearInvalidOrEdge(span, r, with_gradient);
+  patchSumsNearInvalidOrEdge(span, r);
 }
 
-void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r, bool with_gradient) {
+void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
   const PyramidLevel& L = *cur.level;
   const int p = params.patch_size;
   if (!cur.left_all_valid) {
     kernels->sums_masked(cur.right_rows, cur.right_stride, L.right_valid[cur.y0], L.right_valid.step1(),
                          L.width, p, span, cur.view, cur.valid, L.left_valid.step1(), r);
-    return;
-  }
-  // Inside the image, with invalid right pixels elsewhere on the level.
-  if (span.base >= 0 && span.base + p < L.width &&
-      rectSum(L.right_invalid, span.base, cur.y0, span.base + p + 1, cur.y0 + p) == 0) {
-    (with_gradient ? kernels->sums_all_valid : kernels->sums_all_valid_no_gradient)(
-        cur.right_rows, cur.right_stride, p, span, cur.view, r);
-    r.g = cur.constants.g;
-    r.g_sq = cur.constants.g_sq;
     return;
   }
   // Near or past the image edge: sum over the columns inside it, if those are valid.
@@ -528,19 +526,14 @@ float SearchPass::patchCost(float u, float* valid_count) {
 void SearchPass::patchCosts(const float* u, int n, float* costs) {
   const int p = params.patch_size;
   SampleSpan spans[detail::kMaxBatchSpans] = {};
-  // Every span inside the image with only valid pixels: patchSums would take
-  // the all-valid kernel for each. Where the level has invalid pixels (black
-  // borders) one count over the spans' columns tells.
-  bool fast = cur.left_all_valid;
+  // All spans' columns valid: patchSums would take the all-valid kernel for each.
   int lo = cur.width, hi = 0;
   for (int i = 0; i < n; ++i) {
     spans[i] = detail::sampleSpan(cur.x0, u[i]);
     lo = std::min(lo, spans[i].base);
     hi = std::max(hi, spans[i].base + p + 1);
   }
-  fast = fast && lo >= 0 && hi <= cur.width &&
-         (cur.no_invalid_pixels || rectSum(cur.level->right_invalid, lo, cur.y0, hi, cur.y0 + p) == 0);
-  if (!fast) {
+  if (!allValidColumns(lo, hi)) {
     for (int i = 0; i < n; ++i) costs[i] = patchCost(u[i]);
     return;
   }
@@ -578,12 +571,11 @@ float SearchPass::windowCosts(float u) {
   const int p = params.patch_size;
   const int step = static_cast<int>(delta);
   const PyramidLevel& L = *cur.level;
-  if (cur.left_all_valid && static_cast<float>(step) == delta) {
+  if (static_cast<float>(step) == delta) {
     // Samples whole pixels apart: one interpolated row serves them all.
     const SampleSpan lo = detail::sampleSpan(cur.x0, u + static_cast<float>(n) * delta);
     const int last = lo.base + p + 2 * n * step;  // rightmost column read
-    if (lo.base >= 0 && last < L.width &&
-        rectSum(L.right_invalid, lo.base, cur.y0, last + 1, cur.y0 + p) == 0) {
+    if (allValidColumns(lo.base, last + 1)) {
       kernels->window_costs(L.right[cur.y0], rowStride(L.right), p, lo.base, lo.frac, 2 * n + 1,
                             step, cur.view, params.mean_normalization, row_buf.data(),
                             window_sum.data(), window_sq.data(), costs.data());
