@@ -7,48 +7,47 @@ namespace bdis {
 namespace detail {
 namespace {
 
-// Validity of one 8-bit image: a pixel is outside the rectified view when
+// Validity of an 8-bit row: a pixel is outside the rectified view when
 // every channel is 0; judged on the input, not on the grey value, so a very
 // dark but real pixel stays valid.
 BDIS_ROW_LOOP
-void validityOfMono(const cv::Mat& src, cv::Mat1b& valid) {
-  const int w = src.cols;  // not re-read in loops whose byte stores might alias it
-  for (int y = 0; y < src.rows; ++y) {
-    const uchar* s = src.ptr<uchar>(y);
-    uchar* v = valid[y];
-    for (int x = 0; x < w; ++x) v[x] = s[x] != 0;
+void validityOfMonoRow(const uchar* __restrict src, int w, uchar* __restrict valid) {
+  for (int x = 0; x < w; ++x) valid[x] = src[x] != 0;
+}
+
+// Luma and validity of a BGR row, read interleaved. Luma is a whole number:
+// kept in 8 bits, a quarter of the memory traffic of floats.
+BDIS_ROW_LOOP
+void lumaOfBgrRow(const uchar* __restrict bgr, int w, uchar* __restrict grey, uchar* __restrict valid) {
+  for (int x = 0; x < w; ++x) {
+    const uchar b = bgr[3 * x], gr = bgr[3 * x + 1], r = bgr[3 * x + 2];
+    // Rec. 601 luma in 8.8 fixed point (within 1 grey level of cv::cvtColor).
+    const uint16_t luma = static_cast<uint16_t>(29 * b + 150 * gr + 77 * r + 128);
+    grey[x] = static_cast<uchar>(luma >> 8);
+    valid[x] = (b | gr | r) != 0;
   }
 }
 
-// Luma and validity of a BGR image, read interleaved. Luma is a whole
-// number: kept in 8 bits, a quarter of the memory traffic of floats.
-BDIS_ROW_LOOP
-void lumaOfBgr(const cv::Mat& src, cv::Mat1b& grey, cv::Mat1b& valid) {
-  const int w = src.cols;
-  for (int y = 0; y < src.rows; ++y) {
-    const uchar* __restrict bgr = src.ptr<uchar>(y);
-    uchar* __restrict g = grey[y];
-    uchar* __restrict v = valid[y];
-    for (int x = 0; x < w; ++x) {
-      const uchar b = bgr[3 * x], gr = bgr[3 * x + 1], r = bgr[3 * x + 2];
-      // Rec. 601 luma in 8.8 fixed point (within 1 grey level of cv::cvtColor).
-      const uint16_t luma = static_cast<uint16_t>(29 * b + 150 * gr + 77 * r + 128);
-      g[x] = static_cast<uchar>(luma >> 8);
-      v[x] = (b | gr | r) != 0;
-    }
+/// Grey value and validity of row y of an 8-bit mono or BGR input: returns
+/// the input row itself when it is mono, else `luma_row` filled.
+const uchar* greyAndValidityRow(const cv::Mat& src, int y, uchar* luma_row, uchar* valid_row) {
+  const uchar* row = src.ptr<uchar>(y);
+  if (src.channels() == 1) {
+    validityOfMonoRow(row, src.cols, valid_row);
+    return row;
   }
+  lumaOfBgrRow(row, src.cols, luma_row, valid_row);
+  return luma_row;
 }
 
 /// The grey image of an 8-bit mono or BGR input and its validity: the input
 /// itself when it is mono, else `luma` (owned by the pyramid) filled.
 cv::Mat1b greyAndValidity(const cv::Mat& src, cv::Mat1b& luma, cv::Mat1b& valid) {
-  if (src.channels() == 1) {
-    validityOfMono(src, valid);
-    return src;
+  if (src.channels() != 1) luma.create(src.size());
+  for (int y = 0; y < src.rows; ++y) {
+    greyAndValidityRow(src, y, src.channels() == 1 ? nullptr : luma[y], valid[y]);
   }
-  luma.create(src.size());
-  lumaOfBgr(src, luma, valid);
-  return luma;
+  return src.channels() == 1 ? cv::Mat1b(src) : luma;
 }
 
 BDIS_ROW_LOOP
@@ -61,26 +60,28 @@ void toFloat(const cv::Mat1b& src, cv::Mat1f& dst) {
   }
 }
 
-// 2x2 box average (of 8-bit grey or of a float level: the sum of four whole
-// numbers is exact either way, so both give the same values); a coarse pixel
-// is valid only when all four fine ones are, so black borders never bleed
-// into darker-than-real tissue values.
+// 2x2 box average of two fine rows into a coarse row of width w (of 8-bit
+// grey or of a float level: the sum of four whole numbers is exact either
+// way, so both give the same values); a coarse pixel is valid only when all
+// four fine ones are, so black borders never bleed into darker-than-real
+// tissue values.
 template <typename T>
-BDIS_ROW_LOOP void downsample(const cv::Mat_<T>& fine, const cv::Mat1b& fine_valid, cv::Mat1f& coarse,
-                              cv::Mat1b& coarse_valid) {
-  const int w = coarse.cols;
+BDIS_ROW_LOOP void downsampleRow(const T* __restrict f0, const T* __restrict f1,
+                                 const uchar* __restrict v0, const uchar* __restrict v1, int w,
+                                 float* __restrict c, uchar* __restrict cv) {
+  for (int x = 0; x < w; ++x) {
+    const int a = 2 * x;
+    c[x] = 0.25f * (f0[a] + f0[a + 1] + f1[a] + f1[a + 1]);
+    cv[x] = v0[a] & v0[a + 1] & v1[a] & v1[a + 1];
+  }
+}
+
+template <typename T>
+void downsample(const cv::Mat_<T>& fine, const cv::Mat1b& fine_valid, cv::Mat1f& coarse,
+                cv::Mat1b& coarse_valid) {
   for (int y = 0; y < coarse.rows; ++y) {
-    const T* f0 = fine[2 * y];
-    const T* f1 = fine[2 * y + 1];
-    const uchar* v0 = fine_valid[2 * y];
-    const uchar* v1 = fine_valid[2 * y + 1];
-    float* c = coarse[y];
-    uchar* cv = coarse_valid[y];
-    for (int x = 0; x < w; ++x) {
-      const int a = 2 * x;
-      c[x] = 0.25f * (f0[a] + f0[a + 1] + f1[a] + f1[a + 1]);
-      cv[x] = v0[a] & v0[a + 1] & v1[a] & v1[a + 1];
-    }
+    downsampleRow(fine[2 * y], fine[2 * y + 1], fine_valid[2 * y], fine_valid[2 * y + 1], coarse.cols,
+                  coarse[y], coarse_valid[y]);
   }
 }
 
@@ -179,19 +180,19 @@ void buildGradientAndValidityIntegrals(PyramidLevel& l) {
 }
 
 /// Level buffers; a level that is not searched needs no gradient or
-/// integral images, and level 0 needs only its validity when it is not
+/// integral images, and level 0 needs only its left validity when it is not
 /// searched (the grey input is downsampled straight to level 1).
 void allocate(PyramidLevel& l, int w, int h, int s, bool searched) {
   l.width = w;
   l.height = h;
   l.left_valid.create(h, w);
+  if (s == 0 && !searched) return;
   if (l.right_valid_padded.rows != h || l.right_valid_padded.cols != w + 2 * kRightPadding) {
     // Outside the image counts as invalid: the masked kernels read the padding.
     l.right_valid_padded.create(h, w + 2 * kRightPadding);
     l.right_valid_padded.setTo(0);
     l.right_valid = l.right_valid_padded.colRange(kRightPadding, kRightPadding + w);
   }
-  if (s == 0 && !searched) return;
   l.left.create(h, w);
   if (l.right_padded.rows != h || l.right_padded.cols != w + 2 * kRightPadding) {
     l.right_padded.create(h, w + 2 * kRightPadding);
@@ -226,24 +227,51 @@ void StereoPyramid::build(const cv::Mat& left, const cv::Mat& right, int num_lev
     allocate(levels_[s], left.cols >> s, left.rows >> s, s, s >= first_searched_level);
   }
   PyramidLevel& base = levels_[0];
-  const cv::Mat1b grey_left = greyAndValidity(left, luma_[0], base.left_valid);
-  const cv::Mat1b grey_right = greyAndValidity(right, luma_[1], base.right_valid);
+  int first_downsampled = 1;
   if (first_searched_level == 0) {
+    const cv::Mat1b grey_left = greyAndValidity(left, luma_[0], base.left_valid);
+    const cv::Mat1b grey_right = greyAndValidity(right, luma_[1], base.right_valid);
     toFloat(grey_left, base.left);
     toFloat(grey_right, base.right);
+  } else {
+    downsampleInputs(left, right);
+    first_downsampled = 2;
   }
-  for (int s = 1; s < num_levels; ++s) {
+  for (int s = first_downsampled; s < num_levels; ++s) {
     const PyramidLevel& fine = levels_[s - 1];
     PyramidLevel& coarse = levels_[s];
-    if (s == 1) {
-      downsample(grey_left, fine.left_valid, coarse.left, coarse.left_valid);
-      downsample(grey_right, fine.right_valid, coarse.right, coarse.right_valid);
-    } else {
-      downsample(fine.left, fine.left_valid, coarse.left, coarse.left_valid);
-      downsample(fine.right, fine.right_valid, coarse.right, coarse.right_valid);
-    }
+    downsample(fine.left, fine.left_valid, coarse.left, coarse.left_valid);
+    downsample(fine.right, fine.right_valid, coarse.right, coarse.right_valid);
   }
   for (int s = first_searched_level; s < num_levels; ++s) buildGradientAndValidityIntegrals(levels_[s]);
+}
+
+void StereoPyramid::downsampleInputs(const cv::Mat& left, const cv::Mat& right) {
+  PyramidLevel& base = levels_[0];
+  PyramidLevel& one = levels_[1];
+  const int w = left.cols;
+  // Rows: grey of two input rows, then the right input's validity of them.
+  input_rows_.create(4, w);
+  for (const bool is_left : {true, false}) {
+    const cv::Mat& src = is_left ? left : right;
+    cv::Mat1f& coarse = is_left ? one.left : one.right;
+    cv::Mat1b& coarse_valid = is_left ? one.left_valid : one.right_valid;
+    for (int y = 0; y < coarse.rows; ++y) {
+      const uchar* grey[2];
+      const uchar* valid[2];
+      for (int i = 0; i < 2; ++i) {
+        // Level 0 keeps the left validity only: the output mask.
+        uchar* valid_row = is_left ? base.left_valid[2 * y + i] : input_rows_[2 + i];
+        grey[i] = greyAndValidityRow(src, 2 * y + i, input_rows_[i], valid_row);
+        valid[i] = valid_row;
+      }
+      downsampleRow(grey[0], grey[1], valid[0], valid[1], coarse.cols, coarse[y], coarse_valid[y]);
+    }
+    // An odd last row has no coarse row but belongs to the output mask.
+    if (is_left && src.rows % 2) {
+      greyAndValidityRow(src, src.rows - 1, input_rows_[0], base.left_valid[src.rows - 1]);
+    }
+  }
 }
 
 void StereoPyramid::buildMirrored(const StereoPyramid& src, int num_levels,

@@ -1,6 +1,6 @@
 // Image pyramid for the matcher: grey float images, gradients, validity masks
 // and the integral images of invalid pixels that pick a patch's fast path
-// (level 0 only validity unless it is searched). Every buffer is sized once
+// (level 0 only the left validity unless it is searched). Every buffer is sized once
 // per input size; build() on a frame of the same size allocates nothing.
 #pragma once
 
@@ -52,9 +52,16 @@ class StereoPyramid {
   cv::Size size() const { return size_; }  ///< of the input (level 0)
 
  private:
+  /// Level 1 straight from the 8-bit inputs when level 0 is not searched:
+  /// two input rows at a time to grey and validity in `input_rows_`, which
+  /// the 2x2 average reads while they are in cache. Level 0 is not stored,
+  /// except the left validity (the output mask).
+  void downsampleInputs(const cv::Mat& left, const cv::Mat& right);
+
   std::vector<PyramidLevel> levels_;
   cv::Size size_;
-  cv::Mat1b luma_[2];         ///< grey of a colour left / right input (level 0, 8 bits)
+  cv::Mat1b luma_[2];      ///< grey of a colour left / right input, when level 0 is searched
+  cv::Mat1b input_rows_;   ///< downsampleInputs: two grey rows and two right validity rows
 };
 
 /// Largest level count (>= 1) whose coarsest level still holds one patch of `patch_size`.
