@@ -672,6 +672,33 @@ TEST(MatcherOutputs, OddAndTinySizesKeepTheOutputContract) {
   }
 }
 
+// An odd last input row has no pixel at level 1, but it belongs to the
+// output mask: black there means no estimate, real pixels mean estimates
+// (mono and BGR inputs take different paths through the pyramid).
+TEST(MatcherOutputs, OddLastRowFollowsTheLeftValidity) {
+  const StereoPair pair = texturedPair(161, 121, {7.3, 0.0});
+  Matcher matcher;
+  for (bool colour : {false, true}) {
+    for (bool black_last_row : {false, true}) {
+      SCOPED_TRACE(std::string(colour ? "BGR" : "mono") + (black_last_row ? ", black last row" : ""));
+      cv::Mat left = pair.left.clone(), right = pair.right.clone();
+      if (black_last_row) left.row(left.rows - 1).setTo(0);
+      if (colour) {
+        cv::cvtColor(left, left, cv::COLOR_GRAY2BGR);
+        cv::cvtColor(right, right, cv::COLOR_GRAY2BGR);
+      }
+      MatchResult r;
+      matcher.compute(left, right, r);
+      const cv::Mat last = r.disparity.row(r.disparity.rows - 1);
+      if (black_last_row) {
+        EXPECT_EQ(cv::countNonZero(last >= 0.f), 0);
+      } else {
+        EXPECT_GT(cv::countNonZero(last >= 0.f), last.cols / 2);
+      }
+    }
+  }
+}
+
 TEST(MatcherOutputs, ExtremeParametersKeepTheOutputContract) {
   const StereoPair pair = texturedPair(160, 120, {5.6, 0.0});
   std::vector<MatcherParams> all;
