@@ -8,13 +8,13 @@
 //       procedurally textured 640x480 pair. Image-size scaling (BM_Scaling*):
 //       generated scenes (bdis::synth, the demo sample's configuration) at
 //       320x240, 640x480, 1280x720 and 1920x1080, rendered once (about 15 s).
-//   bdis_bench --table [--rounds N] [--no-scaling] [--set NAME=VALUE ...]
+//   bdis_bench --table [--rounds N] [--no-sequences] [--no-scaling] [--set NAME=VALUE ...]
 //       One markdown table (what scripts/bench.sh prints): per synthetic
 //       sequence, the median over all frames (each timed N times, methods
 //       interleaved frame by frame) of the thread CPU time of one compute, for
 //       bdis fast / balanced / accurate and DIS fast, and the ratio to DIS
 //       fast; then the same for balanced and DIS fast on generated scenes of
-//       each size. Thread CPU time, not wall time: on a shared machine it does
+//       each size, the sizes taking turns round by round (6N rounds). Thread CPU time, not wall time: on a shared machine it does
 //       not count the time other processes hold the core. --set changes the
 //       balanced rows (to time a setting before making it the default).
 //   bdis_bench --one-frame bdis_fast|bdis_balanced|bdis_accurate|dis_fast [--pair LEFT RIGHT]
@@ -252,6 +252,56 @@ std::vector<double> medianTimes(const std::vector<Method>& methods, const Pairs&
   return medians;
 }
 
+struct ScalingTimes {
+  std::vector<std::vector<double>> ms;  ///< per size, per method: median per-frame time
+  std::vector<int> rounds;              ///< per size: timed passes over its frames
+};
+
+/// medianTimes for every scaling size at once: each round times every size
+/// in turn (a smaller size more often, so that each gets about the same
+/// time), so a change of the machine's speed during the run hits every size
+/// alike instead of bending the scaling exponent.
+ScalingTimes scalingMedianTimes(const std::vector<std::vector<Method>>& methods, int rounds) {
+  const size_t sizes = std::size(kScalingSizes);
+  const double largest = 1920.0 * 1080.0;
+  std::vector<Pairs> bgr, grey;
+  std::vector<int> repeats;
+  for (const auto& [w, h] : kScalingSizes) {
+    bgr.push_back(scaledFrames(w, h));
+    grey.push_back(toGrey(bgr.back()));
+    repeats.push_back(std::max(1, static_cast<int>(largest / (static_cast<double>(w) * h))));
+  }
+  auto inputFor = [&](size_t size, const Method& m, size_t k) -> const std::pair<cv::Mat, cv::Mat>& {
+    return m.name == "DIS fast" ? grey[size][k] : bgr[size][k];
+  };
+  std::vector<std::vector<std::vector<double>>> times(sizes);
+  for (size_t i = 0; i < sizes; ++i) {
+    times[i].resize(methods[i].size());
+    for (const Method& m : methods[i]) m.compute(inputFor(i, m, 0).first, inputFor(i, m, 0).second);
+  }
+  for (int r = 0; r < rounds; ++r) {
+    for (size_t i = 0; i < sizes; ++i) {
+      for (int rep = 0; rep < repeats[i]; ++rep) {
+        for (size_t k = 0; k < bgr[i].size(); ++k) {
+          for (size_t m = 0; m < methods[i].size(); ++m) {
+            const auto& p = inputFor(i, methods[i][m], k);
+            const double t0 = threadCpuMs();
+            methods[i][m].compute(p.first, p.second);
+            times[i][m].push_back(threadCpuMs() - t0);
+          }
+        }
+      }
+    }
+  }
+  ScalingTimes out;
+  for (size_t i = 0; i < sizes; ++i) {
+    out.ms.emplace_back();
+    for (const auto& t : times[i]) out.ms.back().push_back(median(t));
+    out.rounds.push_back(rounds * repeats[i]);
+  }
+  return out;
+}
+
 void printRows(const std::string& what, cv::Size size, size_t frames, int rounds,
                const std::vector<Method>& methods, const std::vector<double>& ms) {
   const double dis_ms = ms.back();  // DIS fast is always last
@@ -275,7 +325,7 @@ bdis::MatcherParams applySet(bdis::MatcherParams p, const std::string& assignmen
   return p;
 }
 
-int runTable(int rounds, bool scaling, const bdis::MatcherParams& balanced) {
+int runTable(int rounds, bool sequences, bool scaling, const bdis::MatcherParams& balanced) {
   cv::setNumThreads(1);
   const bool modified = bdis::toYaml(balanced) != bdis::toYaml(bdis::MatcherParams{});
   const std::string balanced_name = modified ? "bdis balanced (--set)" : "bdis balanced";
@@ -287,8 +337,9 @@ int runTable(int rounds, bool scaling, const bdis::MatcherParams& balanced) {
   };
   std::printf("| measurement | method | size | frames x rounds | per frame | per MPix | / DIS fast |\n");
   std::printf("|---|---|---|---|---|---|---|\n");
-  const std::string data = bdis::findDataDir();
-  if (data.empty()) {
+  const std::string data = sequences ? bdis::findDataDir() : std::string();
+  if (!sequences) {
+  } else if (data.empty()) {
     std::printf("| (shared data folder not found: set BDIS_DATA_DIR) | | | | | | |\n");
   } else {
     for (const char* name : kSequences) {
@@ -299,17 +350,19 @@ int runTable(int rounds, bool scaling, const bdis::MatcherParams& balanced) {
     }
   }
   if (scaling) {
+    std::vector<std::vector<Method>> methods;  // per size: balanced, DIS fast
+    for (size_t i = 0; i < std::size(kScalingSizes); ++i) {
+      methods.push_back({bdisMethod(balanced_name, balanced), disFastMethod()});
+    }
+    // 30 rounds at the default 5: about 30 s in all.
+    const ScalingTimes t = scalingMedianTimes(methods, 6 * rounds);
     std::vector<double> log_pixels, log_ms[2];
-    for (const auto& [w, h] : kScalingSizes) {
-      const Pairs& pairs = scaledFrames(w, h);
-      const std::vector<Method> methods{bdisMethod(balanced_name, balanced), disFastMethod()};
-      // As many timed frames at every size (about 20 s in all at 1920x1080).
-      const int size_rounds = std::max(3, rounds * 10 * 640 * 480 / (w * h));
-      const std::vector<double> ms = medianTimes(methods, pairs, size_rounds);
-      printRows("time, generated scene (scaling)", cv::Size(w, h), pairs.size(), size_rounds,
-                methods, ms);
+    for (size_t i = 0; i < std::size(kScalingSizes); ++i) {
+      const auto [w, h] = kScalingSizes[i];
+      printRows("time, generated scene (scaling)", cv::Size(w, h), scaledFrames(w, h).size(),
+                t.rounds[i], methods[i], t.ms[i]);
       log_pixels.push_back(std::log(static_cast<double>(w) * h));
-      for (int i = 0; i < 2; ++i) log_ms[i].push_back(std::log(ms[static_cast<size_t>(i)]));
+      for (size_t m = 0; m < 2; ++m) log_ms[m].push_back(std::log(t.ms[i][m]));
     }
     // Time ~ pixels^e: e = 1 is linear; above 1 the time grows faster than the pixel count.
     const double e_bdis = slope(log_pixels, log_ms[0]), e_dis = slope(log_pixels, log_ms[1]);
@@ -358,7 +411,7 @@ int runOneFrame(const std::string& which, const bdis::MatcherParams& balanced,
 
 int main(int argc, char** argv) {
   try {
-    bool table = false, scaling = true;
+    bool table = false, sequences = true, scaling = true;
     int rounds = 5;
     std::string one_frame;
     std::vector<std::string> pair;
@@ -371,6 +424,8 @@ int main(int argc, char** argv) {
         table = true;
       } else if (a == "--no-scaling") {
         scaling = false;
+      } else if (a == "--no-sequences") {
+        sequences = false;
       } else if (a == "--rounds" && has_value) {
         rounds = std::max(1, std::stoi(argv[++i]));
       } else if (a == "--set" && has_value) {
@@ -385,7 +440,7 @@ int main(int argc, char** argv) {
       }
     }
     if (!one_frame.empty()) return runOneFrame(one_frame, balanced, pair);
-    if (table) return runTable(rounds, scaling, balanced);
+    if (table) return runTable(rounds, sequences, scaling, balanced);
     int bench_argc = static_cast<int>(rest.size());
     benchmark::Initialize(&bench_argc, rest.data());
     if (benchmark::ReportUnrecognizedArguments(bench_argc, rest.data())) return 1;
