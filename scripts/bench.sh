@@ -6,8 +6,9 @@
 #    fast / balanced / accurate and OpenCV DIS fast, in the same run, pinned to
 #    one core, single-threaded, and the ratio to DIS fast;
 #  - image-size scaling on generated scenes (320x240 .. 1920x1080), ms and
-#    ms per megapixel, balanced and DIS fast, and the exponent e of a fit
-#    time ~ pixels^e over the sizes (1 = linear);
+#    ms per megapixel, balanced and DIS fast, the sizes taking turns round by
+#    round, and the exponent e of a fit time ~ pixels^e over the sizes
+#    (1 = linear);
 #  - instructions per frame (valgrind callgrind, one compute of the first pair
 #    of synthetic_colon_diffuse, after a warm-up compute) for balanced and DIS
 #    fast: a measure other load on the machine does not move; the same on the
