@@ -40,24 +40,9 @@ const uchar* greyAndValidityRow(const cv::Mat& src, int y, uchar* luma_row, ucha
   return luma_row;
 }
 
-/// The grey image of an 8-bit mono or BGR input and its validity: the input
-/// itself when it is mono, else `luma` (owned by the pyramid) filled.
-cv::Mat1b greyAndValidity(const cv::Mat& src, cv::Mat1b& luma, cv::Mat1b& valid) {
-  if (src.channels() != 1) luma.create(src.size());
-  for (int y = 0; y < src.rows; ++y) {
-    greyAndValidityRow(src, y, src.channels() == 1 ? nullptr : luma[y], valid[y]);
-  }
-  return src.channels() == 1 ? cv::Mat1b(src) : luma;
-}
-
 BDIS_ROW_LOOP
-void toFloat(const cv::Mat1b& src, cv::Mat1f& dst) {
-  const int w = src.cols;
-  for (int y = 0; y < src.rows; ++y) {
-    const uchar* s = src[y];
-    float* d = dst[y];
-    for (int x = 0; x < w; ++x) d[x] = s[x];
-  }
+void toFloatRow(const uchar* __restrict src, int w, float* __restrict dst) {
+  for (int x = 0; x < w; ++x) dst[x] = src[x];
 }
 
 // 2x2 box average of two fine rows into a coarse row of width w (of 8-bit
@@ -76,8 +61,7 @@ BDIS_ROW_LOOP void downsampleRow(const T* __restrict f0, const T* __restrict f1,
   }
 }
 
-template <typename T>
-void downsample(const cv::Mat_<T>& fine, const cv::Mat1b& fine_valid, cv::Mat1f& coarse,
+void downsample(const cv::Mat1f& fine, const cv::Mat1b& fine_valid, cv::Mat1f& coarse,
                 cv::Mat1b& coarse_valid) {
   for (int y = 0; y < coarse.rows; ++y) {
     downsampleRow(fine[2 * y], fine[2 * y + 1], fine_valid[2 * y], fine_valid[2 * y + 1], coarse.cols,
@@ -228,11 +212,12 @@ void StereoPyramid::build(const cv::Mat& left, const cv::Mat& right, int num_lev
   }
   PyramidLevel& base = levels_[0];
   int first_downsampled = 1;
+  input_rows_.create(4, left.cols);
   if (first_searched_level == 0) {
-    const cv::Mat1b grey_left = greyAndValidity(left, luma_[0], base.left_valid);
-    const cv::Mat1b grey_right = greyAndValidity(right, luma_[1], base.right_valid);
-    toFloat(grey_left, base.left);
-    toFloat(grey_right, base.right);
+    for (int y = 0; y < left.rows; ++y) {
+      toFloatRow(greyAndValidityRow(left, y, input_rows_[0], base.left_valid[y]), left.cols, base.left[y]);
+      toFloatRow(greyAndValidityRow(right, y, input_rows_[0], base.right_valid[y]), left.cols, base.right[y]);
+    }
   } else {
     downsampleInputs(left, right);
     first_downsampled = 2;
@@ -249,9 +234,6 @@ void StereoPyramid::build(const cv::Mat& left, const cv::Mat& right, int num_lev
 void StereoPyramid::downsampleInputs(const cv::Mat& left, const cv::Mat& right) {
   PyramidLevel& base = levels_[0];
   PyramidLevel& one = levels_[1];
-  const int w = left.cols;
-  // Rows: grey of two input rows, then the right input's validity of them.
-  input_rows_.create(4, w);
   for (const bool is_left : {true, false}) {
     const cv::Mat& src = is_left ? left : right;
     cv::Mat1f& coarse = is_left ? one.left : one.right;

@@ -60,8 +60,9 @@ class StereoPyramid {
 
   std::vector<PyramidLevel> levels_;
   cv::Size size_;
-  cv::Mat1b luma_[2];      ///< grey of a colour left / right input, when level 0 is searched
-  cv::Mat1b input_rows_;   ///< downsampleInputs: two grey rows and two right validity rows
+  /// Grey of a colour input row; in downsampleInputs two grey rows, then
+  /// the right validity of them.
+  cv::Mat1b input_rows_;
 };
 
 /// Largest level count (>= 1) whose coarsest level still holds one patch of `patch_size`.
