@@ -14,8 +14,9 @@
 //       interleaved frame by frame) of the thread CPU time of one compute, for
 //       bdis fast / balanced / accurate and DIS fast, and the ratio to DIS
 //       fast; then the same for balanced and DIS fast on generated scenes of
-//       each size, the sizes taking turns round by round (6N rounds). Thread CPU time, not wall time: on a shared machine it does
-//       not count the time other processes hold the core. --set changes the
+//       each size, the sizes taking turns round by round (6N rounds). Thread
+//       CPU time, not wall time: on a shared machine it does not count the
+//       time other processes hold the core. --set changes the
 //       balanced rows (to time a setting before making it the default).
 //   bdis_bench --one-frame bdis_fast|bdis_balanced|bdis_accurate|dis_fast [--pair LEFT RIGHT]
 //       Computes the first pair of the first sequence (or the pair of image
@@ -226,30 +227,47 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-/// Median per-frame time (ms) of each method over `rounds` passes over the
-/// frames; methods take turns frame by frame so a change of load on the
-/// machine hits all of them alike. Each is warmed up on the first frame.
-/// DIS gets the grey frames.
-std::vector<double> medianTimes(const std::vector<Method>& methods, const Pairs& bgr, int rounds) {
-  const Pairs grey = toGrey(bgr);
-  auto inputFor = [&](const Method& m, size_t k) -> const std::pair<cv::Mat, cv::Mat>& {
-    return m.name == "DIS fast" ? grey[k] : bgr[k];
-  };
-  for (const Method& m : methods) m.compute(inputFor(m, 0).first, inputFor(m, 0).second);
-  std::vector<std::vector<double>> times(methods.size());
-  for (int r = 0; r < rounds; ++r) {
-    for (size_t k = 0; k < bgr.size(); ++k) {
-      for (size_t i = 0; i < methods.size(); ++i) {
-        const auto& p = inputFor(methods[i], k);
+/// Methods timed on one set of frames, each warmed up on the first frame;
+/// DIS gets the grey frames, bdis the BGR ones.
+class TimedFrames {
+ public:
+  TimedFrames(const std::vector<Method>& methods, const Pairs& bgr)
+      : methods_(&methods), bgr_(bgr), grey_(toGrey(bgr)), times_(methods.size()) {
+    for (const Method& m : methods) run(m, 0);
+  }
+  /// One pass over the frames; the methods take turns frame by frame so a
+  /// change of load on the machine hits all of them alike.
+  void timePass() {
+    for (size_t k = 0; k < bgr_.size(); ++k) {
+      for (size_t i = 0; i < methods_->size(); ++i) {
         const double t0 = threadCpuMs();
-        methods[i].compute(p.first, p.second);
-        times[i].push_back(threadCpuMs() - t0);
+        run((*methods_)[i], k);
+        times_[i].push_back(threadCpuMs() - t0);
       }
     }
   }
-  std::vector<double> medians;
-  for (const auto& t : times) medians.push_back(median(t));
-  return medians;
+  /// Median per-frame time (ms) of each method.
+  std::vector<double> medians() const {
+    std::vector<double> out;
+    for (const auto& t : times_) out.push_back(median(t));
+    return out;
+  }
+
+ private:
+  void run(const Method& m, size_t k) const {
+    const auto& p = m.name == "DIS fast" ? grey_[k] : bgr_[k];
+    m.compute(p.first, p.second);
+  }
+  const std::vector<Method>* methods_;
+  Pairs bgr_, grey_;
+  std::vector<std::vector<double>> times_;  ///< per method
+};
+
+/// Median per-frame time (ms) of each method over `rounds` passes over the frames.
+std::vector<double> medianTimes(const std::vector<Method>& methods, const Pairs& bgr, int rounds) {
+  TimedFrames timed(methods, bgr);
+  for (int r = 0; r < rounds; ++r) timed.timePass();
+  return timed.medians();
 }
 
 struct ScalingTimes {
@@ -262,41 +280,22 @@ struct ScalingTimes {
 /// time), so a change of the machine's speed during the run hits every size
 /// alike instead of bending the scaling exponent.
 ScalingTimes scalingMedianTimes(const std::vector<std::vector<Method>>& methods, int rounds) {
-  const size_t sizes = std::size(kScalingSizes);
   const double largest = 1920.0 * 1080.0;
-  std::vector<Pairs> bgr, grey;
+  std::vector<TimedFrames> sizes;
   std::vector<int> repeats;
-  for (const auto& [w, h] : kScalingSizes) {
-    bgr.push_back(scaledFrames(w, h));
-    grey.push_back(toGrey(bgr.back()));
+  for (size_t i = 0; i < std::size(kScalingSizes); ++i) {
+    const auto [w, h] = kScalingSizes[i];
+    sizes.emplace_back(methods[i], scaledFrames(w, h));
     repeats.push_back(std::max(1, static_cast<int>(largest / (static_cast<double>(w) * h))));
   }
-  auto inputFor = [&](size_t size, const Method& m, size_t k) -> const std::pair<cv::Mat, cv::Mat>& {
-    return m.name == "DIS fast" ? grey[size][k] : bgr[size][k];
-  };
-  std::vector<std::vector<std::vector<double>>> times(sizes);
-  for (size_t i = 0; i < sizes; ++i) {
-    times[i].resize(methods[i].size());
-    for (const Method& m : methods[i]) m.compute(inputFor(i, m, 0).first, inputFor(i, m, 0).second);
-  }
   for (int r = 0; r < rounds; ++r) {
-    for (size_t i = 0; i < sizes; ++i) {
-      for (int rep = 0; rep < repeats[i]; ++rep) {
-        for (size_t k = 0; k < bgr[i].size(); ++k) {
-          for (size_t m = 0; m < methods[i].size(); ++m) {
-            const auto& p = inputFor(i, methods[i][m], k);
-            const double t0 = threadCpuMs();
-            methods[i][m].compute(p.first, p.second);
-            times[i][m].push_back(threadCpuMs() - t0);
-          }
-        }
-      }
+    for (size_t i = 0; i < sizes.size(); ++i) {
+      for (int rep = 0; rep < repeats[i]; ++rep) sizes[i].timePass();
     }
   }
   ScalingTimes out;
-  for (size_t i = 0; i < sizes; ++i) {
-    out.ms.emplace_back();
-    for (const auto& t : times[i]) out.ms.back().push_back(median(t));
+  for (size_t i = 0; i < sizes.size(); ++i) {
+    out.ms.push_back(sizes[i].medians());
     out.rounds.push_back(rounds * repeats[i]);
   }
   return out;
@@ -338,10 +337,9 @@ int runTable(int rounds, bool sequences, bool scaling, const bdis::MatcherParams
   std::printf("| measurement | method | size | frames x rounds | per frame | per MPix | / DIS fast |\n");
   std::printf("|---|---|---|---|---|---|---|\n");
   const std::string data = sequences ? bdis::findDataDir() : std::string();
-  if (!sequences) {
-  } else if (data.empty()) {
+  if (sequences && data.empty()) {
     std::printf("| (shared data folder not found: set BDIS_DATA_DIR) | | | | | | |\n");
-  } else {
+  } else if (sequences) {
     for (const char* name : kSequences) {
       const Pairs pairs = loadSequence(data + "/" + name);
       const std::vector<Method> methods = allMethods();
