@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -172,6 +173,20 @@ struct SearchPass {
   float maxVariance() const {
     const float half_span = static_cast<float>(params.window_half_width) * params.window_step;
     return 4.f * half_span * half_span;
+  }
+  /// The propagation candidates of patch k: the disparities of its loaded
+  /// neighbours k + row_offset (in the same patch row, if `in_row`) and
+  /// k + column_offset (in the same column, if `in_column`), in that order.
+  int neighbourCandidates(size_t k, bool in_row, std::ptrdiff_t row_offset, bool in_column,
+                          std::ptrdiff_t column_offset, float* out) const {
+    int n = 0;
+    auto add = [&](bool present, std::ptrdiff_t offset) {
+      const size_t neighbour = static_cast<size_t>(static_cast<std::ptrdiff_t>(k) + offset);
+      if (present && patch_loaded[neighbour]) out[n++] = patches[neighbour].disparity;
+    };
+    add(in_row, row_offset);
+    add(in_column, column_offset);
+    return n;
   }
   /// Spatial propagation (DIS): in order, each of the n <= 2 candidates (the
   /// neighbours' disparities) replaces u when its cost is lower. True when u changed.
@@ -363,12 +378,7 @@ void SearchPass::matchLevel(int s, bool finest) {
       loaded_patches[k] = cur;
       if (params.propagation) {
         float candidates[2];
-        int n = 0;
-        if (ix > 0 && patch_loaded[k - 1]) candidates[n++] = patches[k - 1].disparity;
-        if (iy > 0 && patch_loaded[k - static_cast<size_t>(nx)]) {
-          candidates[n++] = patches[k - static_cast<size_t>(nx)].disparity;
-        }
-        propagate(u, candidates, n);
+        propagate(u, candidates, neighbourCandidates(k, ix > 0, -1, iy > 0, -nx, candidates));
       }
       patches[k].disparity = refinePatch(u);
     }
@@ -383,11 +393,7 @@ void SearchPass::matchLevel(int s, bool finest) {
       float u = patches[k].disparity;
       if (params.propagation) {
         float candidates[2];
-        int n = 0;
-        if (ix + 1 < nx && patch_loaded[k + 1]) candidates[n++] = patches[k + 1].disparity;
-        if (iy + 1 < ny && patch_loaded[k + static_cast<size_t>(nx)]) {
-          candidates[n++] = patches[k + static_cast<size_t>(nx)].disparity;
-        }
+        const int n = neighbourCandidates(k, ix + 1 < nx, 1, iy + 1 < ny, nx, candidates);
         if (propagate(u, candidates, n)) u = refinePatch(u);
       }
       patches[k] = patchPosterior(u);
