@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The benchmark command: builds the package if needed, then prints one table
-# for this machine (CPU name from /proc/cpuinfo):
+# for this machine (CPU name, family / model, cache sizes and widest SIMD
+# extension from /proc/cpuinfo and sysfs):
 #  - per synthetic sequence of the shared data folder, the median over all its
 #    frames (each timed several times) of the per-frame compute time of bdis
 #    fast / balanced / accurate and OpenCV DIS fast, in the same run, pinned to
@@ -41,8 +42,19 @@ set -- "${args[@]+"${args[@]}"}"
 [ -x "$BIN_DIR/bdis_bench" ] || { log "bdis_bench was not built (is libbenchmark-dev installed?)"; exit 1; }
 
 core="${BDIS_BENCH_CORE:-$([ "$(nproc)" -gt 1 ] && echo 1 || echo 0)}"
-cpu="$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//')"
-echo "CPU: ${cpu:-unknown} ($(nproc) cores online); pinned to core $core with taskset, single-threaded"
+cpuinfo_field() { grep -m1 "^$1[[:space:]]*:" /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//'; }
+cache_size() { cat "/sys/devices/system/cpu/cpu$core/cache/index$1/size" 2>/dev/null || echo "?"; }
+cpu="$(cpuinfo_field 'model name')"
+# A virtual machine's model name may be only the brand ("AMD EPYC"): family,
+# model and the cache sizes tell instances apart, whose speeds differ.
+family="$(cpuinfo_field 'cpu family')"
+cpu_id="${family:+family $family model $(cpuinfo_field model); }"
+simd=""
+for flag in avx512f avx2 sse4_1 asimd; do
+  grep -m1 -qw "$flag" /proc/cpuinfo && { simd="$flag"; break; }
+done
+echo "CPU: ${cpu:-unknown} (${cpu_id}L2 $(cache_size 2) per core, L3 $(cache_size 3); widest SIMD ${simd:-none}; $(nproc) cores online)"
+echo "pinned to core $core with taskset, single-threaded"
 echo
 
 taskset -c "$core" "$BIN_DIR/bdis_bench" --table "$@"
