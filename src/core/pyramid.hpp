@@ -60,8 +60,9 @@ class StereoPyramid {
 
   std::vector<PyramidLevel> levels_;
   cv::Size size_;
-  /// Grey of a colour input row; in downsampleInputs two grey rows, then
-  /// the right validity of them.
+  /// Row scratch of the 8-bit conversion: rows 0 and 1 the grey of a colour
+  /// input's rows; rows 2 and 3 the right validity of the two rows
+  /// downsampleInputs averages (level 0 stores none when not searched).
   cv::Mat1b input_rows_;
 };
 
