@@ -47,6 +47,20 @@ void fill(cv::Mat1f& m, float value) {
 
 size_t rowStride(const cv::Mat1f& m) { return m.step1(); }
 
+/// Patch grid spacing at a level searched with the given overlap.
+int patchStride(int p, double overlap) {
+  return std::max(1, static_cast<int>(std::lround(p * (1.0 - overlap))));
+}
+
+/// Rows of fuseLevel's accumulator band: one patch and four more patch rows,
+/// so the rows carried over when the band moves (fewer than p) are copied once
+/// per four patch rows. 28 rows at the defaults: at 1920x1080 the five sums
+/// take 0.5 MB, where whole-level sums took 10 MB and ran from memory.
+int fuseBandRows(const MatcherParams& P) {
+  const int p = P.patch_size;
+  return p + 4 * std::max(patchStride(p, P.overlap), patchStride(p, P.coarse_overlap));
+}
+
 std::string describe(const cv::Mat& m) {
   return std::to_string(m.cols) + "x" + std::to_string(m.rows) + " type " +
          cv::typeToString(m.type());
@@ -100,6 +114,8 @@ struct SearchPass {
 
   // Per-level state, sized on the first frame of a given size.
   std::vector<cv::Mat1f> init_disparity;  ///< dense coarse-to-fine initialisation per level
+  /// fuseLevel's accumulators: a band of fuseBandRows() level rows slides down
+  /// the level, so they stay in cache at any image size.
   cv::Mat1f fused_num, fused_den, conf_sum, var_num, var_den;
   cv::Mat1f level_disparity, level_confidence, level_variance;  ///< finest level, floored
   std::vector<int> xs, ys;
@@ -191,7 +207,12 @@ struct SearchPass {
   /// Spatial propagation (DIS): in order, each of the n <= 2 candidates (the
   /// neighbours' disparities) replaces u when its cost is lower. True when u changed.
   bool propagate(float& u, const float* candidates, int n);
+  /// Fuses the patches of level s into init_disparity[s] (and, on the finest
+  /// level, level_disparity / level_confidence / level_variance).
   void fuseLevel(int s, bool finest);
+  /// fuseLevel's per-pixel results for level rows [band_top, end), all final,
+  /// from the band of accumulators that starts at level row band_top.
+  void finishFusedRows(int s, bool finest, int band_top, int end);
   void upsampleToFull(int s, MatchResult& out);
 };
 
@@ -245,9 +266,10 @@ void SearchPass::allocate(cv::Size size, int levels) {
   }
   // Level-sized buffers are allocated at the largest searched level (the finest).
   const cv::Size largest(size.width >> params.finest_level, size.height >> params.finest_level);
-  for (cv::Mat1f* m : {&fused_num, &fused_den, &conf_sum, &var_num, &var_den, &level_disparity,
-                       &level_confidence, &level_variance}) {
-    m->create(largest);
+  for (cv::Mat1f* m : {&level_disparity, &level_confidence, &level_variance}) m->create(largest);
+  const int band_rows = fuseBandRows(params);
+  for (cv::Mat1f* m : {&fused_num, &fused_den, &conf_sum, &var_num, &var_den}) {
+    m->create(band_rows, largest.width);
   }
   cover_x.resize(static_cast<size_t>(largest.width));
   cover_y.resize(static_cast<size_t>(largest.height));
@@ -343,7 +365,7 @@ void SearchPass::matchLevel(int s, bool finest) {
   const int p = params.patch_size;
   // Coarser levels only initialise the next one: they get by with fewer patches.
   const double overlap = finest ? params.overlap : params.coarse_overlap;
-  const int stride = std::max(1, static_cast<int>(std::lround(p * (1.0 - overlap))));
+  const int stride = patchStride(p, overlap);
   patchAxis(L.width, p, stride, xs);
   patchAxis(L.height, p, stride, ys);
   const int nx = static_cast<int>(xs.size()), ny = static_cast<int>(ys.size());
@@ -749,51 +771,76 @@ void coverAlongAxis(const std::vector<int>& origins, int p, std::vector<float>& 
 void SearchPass::fuseLevel(int s, bool finest) {
   const PyramidLevel& L = pyramid.level(s);
   const int p = params.patch_size;
-  const cv::Rect roi(0, 0, L.width, L.height);
-  cv::Mat1f num = fused_num(roi), den = fused_den(roi), csum = conf_sum(roi), vnum = var_num(roi),
-            vden = var_den(roi);
+  const int w = L.width;
   const bool variance = params.compute_variance && finest;
-  for (cv::Mat1f* m : {&num, &den, &csum}) fill(*m, 0.f);
-  if (variance) {
-    fill(vnum, 0.f);
-    fill(vden, 0.f);
-  }
+  // The band holds level rows [band_top, band_top + band_rows). Patch rows
+  // come top to bottom, so when the next one does not fit, the rows above it
+  // are final: they are finished, the rest moves up and the band follows.
+  // Every pixel sums its patches in the same order as over a whole-level buffer.
+  const int band_rows = fused_num.rows;
+  cv::Mat1f* const sums[] = {&fused_num, &fused_den, &conf_sum, &var_num, &var_den};
+  const int num_sums = variance ? 5 : 3;
+  auto clearRows = [&](int from) {
+    for (int i = 0; i < num_sums; ++i) {
+      for (int y = from; y < band_rows; ++y) std::fill((*sums[i])[y], (*sums[i])[y] + w, 0.f);
+    }
+  };
+  int band_top = 0;
+  clearRows(0);
   // The grid is regular: the patches covering a pixel are those covering its
   // column times those covering its row.
   coverAlongAxis(xs, p, cover_x, L.width);
   coverAlongAxis(ys, p, cover_y, L.height);
 
+  const size_t stride = rowStride(fused_num);
   size_t k = 0;
   for (int y0 : ys) {
+    if (y0 + p > band_top + band_rows) {
+      finishFusedRows(s, finest, band_top, y0);
+      const int kept = band_top + band_rows - y0;  // < p: rows the next patches add to
+      for (int i = 0; i < num_sums; ++i) {
+        for (int y = 0; y < kept; ++y) {
+          std::copy((*sums[i])[y0 - band_top + y], (*sums[i])[y0 - band_top + y] + w, (*sums[i])[y]);
+        }
+      }
+      clearRows(kept);
+      band_top = y0;
+    }
+    const int by = y0 - band_top;
     for (int x0 : xs) {
       const PatchEstimate& e = patches[k++];
       if (e.posterior <= 0.f) continue;
       kernels->accumulate_patch(p, spatial.data(), e.posterior, e.disparity, e.evidence,
-                                num[y0] + x0, den[y0] + x0, csum[y0] + x0, rowStride(num));
+                                fused_num[by] + x0, fused_den[by] + x0, conf_sum[by] + x0, stride);
       if (variance) {
         for (int y = 0; y < p; ++y) {
           const float* g = spatial.data() + y * p;
-          float* vn = vnum[y0 + y] + x0;
-          float* vd = vden[y0 + y] + x0;
+          float* vn = var_num[by + y] + x0;
+          float* vd = var_den[by + y] + x0;
           for (int x = 0; x < p; ++x) {
-            const float w = e.posterior * g[x];
-            vn[x] += w * w * e.variance;
-            vd[x] += w * w;
+            const float wt = e.posterior * g[x];
+            vn[x] += wt * wt * e.variance;
+            vd[x] += wt * wt;
           }
         }
       }
     }
   }
+  finishFusedRows(s, finest, band_top, L.height);
+}
 
+void SearchPass::finishFusedRows(int s, bool finest, int band_top, int end) {
   // Dense initialisation for the next finer level: the fused value where any
   // patch survived, otherwise this level's own initialisation.
+  const int w = pyramid.level(s).width;
+  const bool variance = params.compute_variance && finest;
   cv::Mat1f& init = init_disparity[s];
   const cv::Mat1f& coarse = init_disparity[s + 1];
-  const int w = L.width;
-  for (int y = 0; y < L.height; ++y) {
-    const float* nr = num[y];
-    const float* dr = den[y];
-    const float* cr = csum[y];
+  for (int y = band_top; y < end; ++y) {
+    const int by = y - band_top;
+    const float* nr = fused_num[by];
+    const float* dr = fused_den[by];
+    const float* cr = conf_sum[by];
     const float* coarse_row = coarse[std::min(y / 2, coarse.rows - 1)];
     float* ir = init[y];
     fusedRow(w, nr, dr, ir);
@@ -806,10 +853,12 @@ void SearchPass::fuseLevel(int s, bool finest) {
              params.confidence_floor, dout, level_confidence[y]);
     if (!variance) continue;
     float* vout = level_variance[y];
+    const float* vn = var_num[by];
+    const float* vd = var_den[by];
     for (int x = 0; x < w; ++x) {
       // Squared weights can underflow for a tiny sigma_s: report the maximal
       // variance then rather than 0/0.
-      vout[x] = dout[x] < 0.f ? kNaN : vden(y, x) > 0.f ? vnum(y, x) / vden(y, x) : maxVariance();
+      vout[x] = dout[x] < 0.f ? kNaN : vd[x] > 0.f ? vn[x] / vd[x] : maxVariance();
     }
   }
 }
