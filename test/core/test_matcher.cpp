@@ -35,6 +35,24 @@ int patchAtFullRes(const MatcherParams& p) { return p.patch_size << p.finest_lev
 /// away from the image border, where fewer patches cover a pixel.
 int accuracyMargin(const MatcherParams& p) { return 2 * patchAtFullRes(p); }
 
+/// Least-squares line d = intercept + slope * t through the estimates in roi,
+/// t the column (along_columns) or the row; NaNs without estimates.
+std::pair<double, double> fitDisparityLine(const cv::Mat& disparity, const cv::Rect& roi,
+                                           bool along_columns) {
+  double n = 0, sum_t = 0, sum_d = 0, sum_tt = 0, sum_td = 0;
+  for (int y = roi.y; y < roi.br().y; ++y) {
+    for (int x = roi.x; x < roi.br().x; ++x) {
+      const float d = disparity.at<float>(y, x);
+      if (d < 0.f) continue;
+      const double t = along_columns ? x : y;
+      n += 1, sum_t += t, sum_d += d, sum_tt += t * t, sum_td += t * d;
+    }
+  }
+  if (n == 0) return {std::nan(""), std::nan("")};
+  const double slope = (n * sum_td - sum_t * sum_d) / (n * sum_tt - sum_t * sum_t);
+  return {slope, (sum_d - slope * sum_t) / n};
+}
+
 MatchResult run(const MatcherParams& params, const cv::Mat& left, const cv::Mat& right) {
   Matcher m(params);
   MatchResult r;
@@ -190,17 +208,7 @@ TEST(MatcherAccuracy, SlantedPlaneRecovered) {
     EXPECT_LT(std::fabs(s.mean_signed), 0.02);
 
     // Least-squares line through the estimates: the slope is the plane's.
-    double n = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
-    for (int y = roi.y; y < roi.br().y; ++y) {
-      for (int x = roi.x; x < roi.br().x; ++x) {
-        const float d = r.disparity.at<float>(y, x);
-        if (d < 0.f) continue;
-        n += 1, sx += x, sy += d, sxx += double(x) * x, sxy += double(x) * d;
-      }
-    }
-    ASSERT_GT(n, 0);
-    const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-    const double intercept = (sy - slope * sx) / n;
+    const auto [slope, intercept] = fitDisparityLine(r.disparity, roi, /*along_columns=*/true);
     std::printf("[measured] slanted plane fit: slope %.5f (true %.5f), intercept %.4f (true %.4f)\n",
                 slope, plane.b, intercept, plane.a);
     EXPECT_NEAR(slope, plane.b, 0.02 * std::fabs(plane.b));
@@ -243,19 +251,12 @@ TEST(MatcherAccuracy, PlaneSlantedAlongTheRowsRecoveredInEveryRow) {
     EXPECT_LT(s.p95, 0.16);
 
     double worst_row_median = 0.0;
-    double n = 0, sy = 0, sd = 0, syy = 0, syd = 0;
     for (int y = roi.y; y < roi.br().y; ++y) {
       const ErrorStats row = errorStats(r.disparity, pair.gt, cv::Rect(roi.x, y, roi.width, 1));
       EXPECT_GE(row.density(), 0.95) << "row " << y;
       worst_row_median = std::max(worst_row_median, row.median);
-      for (int x = roi.x; x < roi.br().x; ++x) {
-        const float d = r.disparity.at<float>(y, x);
-        if (d < 0.f) continue;
-        n += 1, sy += y, sd += d, syy += double(y) * y, syd += double(y) * d;
-      }
     }
-    ASSERT_GT(n, 0);
-    const double slope = (n * syd - sy * sd) / (n * syy - sy * sy);
+    const double slope = fitDisparityLine(r.disparity, roi, /*along_columns=*/false).first;
     std::printf("[measured] rows slant: worst row median %.4f px, slope %.5f (true %.5f)\n",
                 worst_row_median, slope, c);
     EXPECT_LT(worst_row_median, 0.12);
