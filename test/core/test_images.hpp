@@ -92,13 +92,14 @@ class Texture {
 
 inline uchar toByte(double v) { return cv::saturate_cast<uchar>(std::lround(v)); }
 
-/// Linear disparity in left coordinates, d(x) = a + b * x.
+/// Linear disparity in left coordinates, d(x, y) = a + b * x + c * y.
 struct LinearDisparity {
   double a = 0.0;
   double b = 0.0;
-  double at(double x_left) const { return a + b * x_left; }
-  /// Left x seen at right x: solves xl - d(xl) = xr.
-  double leftOf(double x_right) const { return (x_right + a) / (1.0 - b); }
+  double c = 0.0;  ///< along the rows
+  double at(double x_left, double y = 0.0) const { return a + b * x_left + c * y; }
+  /// Left x seen at right x on row y: solves xl - d(xl, y) = xr.
+  double leftOf(double x_right, double y = 0.0) const { return (x_right + (a + c * y)) / (1.0 - b); }
 };
 
 /// Scene value at a left-image position (the "paint" on the surface).
@@ -121,16 +122,18 @@ inline StereoPair renderPair(int width, int height, const Scene& scene, LinearDi
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
       p.left.at<uchar>(y, x) = toByte(scene(x, y));
-      p.right.at<uchar>(y, x) = toByte(scene(disp.leftOf(x), y) + right_offset);
-      p.gt.at<float>(y, x) = static_cast<float>(disp.at(x));
+      p.right.at<uchar>(y, x) = toByte(scene(disp.leftOf(x, y), y) + right_offset);
+      p.gt.at<float>(y, x) = static_cast<float>(disp.at(x, y));
     }
   }
   return p;
 }
 
-/// renderPair() of a Texture(seed) scene, through the fast Texture::render.
+/// renderPair() of a Texture(seed) scene, through the fast Texture::render,
+/// which renders every row alike: disparity along x only (c = 0).
 inline StereoPair texturedPair(int width, int height, LinearDisparity disp, unsigned seed = 1,
                                double right_offset = 0.0) {
+  if (disp.c != 0.0) throw std::invalid_argument("texturedPair: disparity varies along x only");
   const Texture tex(seed);
   std::vector<double> xl(static_cast<size_t>(width)), xr(static_cast<size_t>(width));
   StereoPair p;

@@ -229,18 +229,7 @@ TEST(MatcherAccuracy, PlaneSlantedAlongTheRowsRecoveredInEveryRow) {
   for (const double c : {0.1, -0.1}) {
     const double a = c > 0 ? 2.0 : 26.0;
     SCOPED_TRACE("d = " + std::to_string(a) + " + " + std::to_string(c) + " y");
-    StereoPair pair;
-    pair.left.create(kH, kW, CV_8UC1);
-    pair.right.create(kH, kW, CV_8UC1);
-    pair.gt.create(kH, kW, CV_32FC1);
-    for (int y = 0; y < kH; ++y) {
-      const double d = a + c * y;
-      for (int x = 0; x < kW; ++x) {
-        pair.left.at<uchar>(y, x) = toByte(tex(x, y));
-        pair.right.at<uchar>(y, x) = toByte(tex(x + d, y));
-        pair.gt.at<float>(y, x) = static_cast<float>(d);
-      }
-    }
+    const StereoPair pair = renderPair(kW, kH, tex, {a, 0.0, c});
     const MatchResult r = run(params, pair.left, pair.right);
     const int max_d = static_cast<int>(std::ceil(std::max(a, a + c * kH)));
     const cv::Rect roi = interior(kW, kH, accuracyMargin(params), max_d);
