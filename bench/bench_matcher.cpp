@@ -14,7 +14,8 @@
 //       interleaved frame by frame) of the thread CPU time of one compute, for
 //       bdis fast / balanced / accurate and DIS fast, and the ratio to DIS
 //       fast; then the same for balanced and DIS fast on generated scenes of
-//       each size, the sizes taking turns round by round (6N rounds). Thread
+//       each size, the sizes taking turns round by round (6N rounds), once
+//       back to back and once with the caches emptied before each frame. Thread
 //       CPU time, not wall time: on a shared machine it does not count the
 //       time other processes hold the core. --set changes the
 //       balanced rows (to time a setting before making it the default).
@@ -37,6 +38,7 @@
 #include <cstdio>
 #include <cstring>
 #include <ctime>
+#include <fstream>
 #include <functional>
 #include <map>
 #include <memory>
@@ -227,12 +229,47 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+/// Size of this core's last-level cache from sysfs ("32768K"), 32 MB if
+/// unknown. Not sysconf(_SC_LEVEL3_CACHE_SIZE): glibc reports the whole
+/// package's L3 there on some CPUs (384 MB for a 32 MB L3 here).
+size_t lastLevelCacheBytes() {
+  size_t best = 0;
+  for (int index = 0; index < 8; ++index) {
+    std::ifstream in("/sys/devices/system/cpu/cpu0/cache/index" + std::to_string(index) + "/size");
+    size_t kb = 0;
+    if (in >> kb) best = std::max(best, kb << 10);  // the value ends in K
+  }
+  return best > 0 ? best : size_t{32} << 20;
+}
+
+/// Reads a buffer three times the size of the last-level cache, so that nothing of
+/// the previous frame is cached: each frame then starts as in a node, where
+/// the images arrive from memory and the work between frames (messages,
+/// clouds, other nodes) has displaced the matcher's buffers. Reads, not
+/// writes: no dirty lines are left to be written back during the next frame.
+class CacheEvictor {
+ public:
+  CacheEvictor() {
+    buffer_.assign(std::clamp(3 * lastLevelCacheBytes(), size_t{64} << 20, size_t{512} << 20), 1);
+  }
+  size_t bytes() const { return buffer_.size(); }
+  void evict() {
+    unsigned sum = 0;
+    for (size_t i = 0; i < buffer_.size(); i += 64) sum += buffer_[i];
+    benchmark::DoNotOptimize(sum);
+  }
+
+ private:
+  std::vector<unsigned char> buffer_;
+};
+
 /// Methods timed on one set of frames, each warmed up on the first frame;
-/// DIS gets the grey frames, bdis the BGR ones.
+/// DIS gets the grey frames, bdis the BGR ones. With an evictor, the caches
+/// are emptied (untimed) before each timed compute.
 class TimedFrames {
  public:
-  TimedFrames(const std::vector<Method>& methods, const Pairs& bgr)
-      : methods_(&methods), bgr_(bgr), grey_(toGrey(bgr)), times_(methods.size()) {
+  TimedFrames(const std::vector<Method>& methods, const Pairs& bgr, CacheEvictor* evictor = nullptr)
+      : methods_(&methods), bgr_(bgr), grey_(toGrey(bgr)), times_(methods.size()), evictor_(evictor) {
     for (const Method& m : methods) run(m, 0);
   }
   /// One pass over the frames; the methods take turns frame by frame so a
@@ -240,6 +277,7 @@ class TimedFrames {
   void timePass() {
     for (size_t k = 0; k < bgr_.size(); ++k) {
       for (size_t i = 0; i < methods_->size(); ++i) {
+        if (evictor_) evictor_->evict();
         const double t0 = threadCpuMs();
         run((*methods_)[i], k);
         times_[i].push_back(threadCpuMs() - t0);
@@ -261,6 +299,7 @@ class TimedFrames {
   const std::vector<Method>* methods_;
   Pairs bgr_, grey_;
   std::vector<std::vector<double>> times_;  ///< per method
+  CacheEvictor* evictor_;
 };
 
 /// Median per-frame time (ms) of each method over `rounds` passes over the frames.
@@ -279,13 +318,14 @@ struct ScalingTimes {
 /// in turn (a smaller size more often, so that each gets about the same
 /// time), so a change of the machine's speed during the run hits every size
 /// alike instead of bending the scaling exponent.
-ScalingTimes scalingMedianTimes(const std::vector<std::vector<Method>>& methods, int rounds) {
+ScalingTimes scalingMedianTimes(const std::vector<std::vector<Method>>& methods, int rounds,
+                                CacheEvictor* evictor = nullptr) {
   const double largest = 1920.0 * 1080.0;
   std::vector<TimedFrames> sizes;
   std::vector<int> repeats;
   for (size_t i = 0; i < std::size(kScalingSizes); ++i) {
     const auto [w, h] = kScalingSizes[i];
-    sizes.emplace_back(methods[i], scaledFrames(w, h));
+    sizes.emplace_back(methods[i], scaledFrames(w, h), evictor);
     repeats.push_back(std::max(1, static_cast<int>(largest / (static_cast<double>(w) * h))));
   }
   for (int r = 0; r < rounds; ++r) {
@@ -348,26 +388,37 @@ int runTable(int rounds, bool sequences, bool scaling, const bdis::MatcherParams
     }
   }
   if (scaling) {
-    std::vector<std::vector<Method>> methods;  // per size: balanced, DIS fast
-    for (size_t i = 0; i < std::size(kScalingSizes); ++i) {
-      methods.push_back({bdisMethod(balanced_name, balanced), disFastMethod()});
-    }
-    // 30 rounds at the default 5: about 30 s in all.
-    const ScalingTimes t = scalingMedianTimes(methods, 6 * rounds);
-    std::vector<double> log_pixels, log_ms[2];
-    for (size_t i = 0; i < std::size(kScalingSizes); ++i) {
-      const auto [w, h] = kScalingSizes[i];
-      printRows("time, generated scene (scaling)", cv::Size(w, h), scaledFrames(w, h).size(),
-                t.rounds[i], methods[i], t.ms[i]);
-      log_pixels.push_back(std::log(static_cast<double>(w) * h));
-      for (size_t m = 0; m < 2; ++m) log_ms[m].push_back(std::log(t.ms[i][m]));
-    }
-    // Time ~ pixels^e: e = 1 is linear; above 1 the time grows faster than the pixel count.
-    const double e_bdis = slope(log_pixels, log_ms[0]), e_dis = slope(log_pixels, log_ms[1]);
-    for (const auto& [name, e] : {std::pair<std::string, double>{balanced_name, e_bdis}, {"DIS fast", e_dis}}) {
-      std::printf("| scaling exponent e, time ~ pixels^e (least squares over the sizes above) | %s | "
-                  "320x240 .. 1920x1080 | | e = %.3f | | %.2f |\n",
-                  name.c_str(), e, e / e_dis);
+    // Twice: frames back to back, as the other rows (a small frame's buffers
+    // stay cached from one frame to the next), and with the caches emptied
+    // before each frame (every frame starts from memory, as in a node).
+    CacheEvictor evictor;
+    for (const bool evicted : {false, true}) {
+      std::vector<std::vector<Method>> methods;  // per size: balanced, DIS fast
+      for (size_t i = 0; i < std::size(kScalingSizes); ++i) {
+        methods.push_back({bdisMethod(balanced_name, balanced), disFastMethod()});
+      }
+      // 30 rounds at the default 5: about 30 s in all (twice that with eviction).
+      const ScalingTimes t = scalingMedianTimes(methods, 6 * rounds, evicted ? &evictor : nullptr);
+      const std::string what =
+          evicted ? "time, generated scene (scaling), caches emptied before each frame (" +
+                        std::to_string(evictor.bytes() >> 20) + " MB read)"
+                  : std::string("time, generated scene (scaling)");
+      std::vector<double> log_pixels, log_ms[2];
+      for (size_t i = 0; i < std::size(kScalingSizes); ++i) {
+        const auto [w, h] = kScalingSizes[i];
+        printRows(what, cv::Size(w, h), scaledFrames(w, h).size(), t.rounds[i], methods[i], t.ms[i]);
+        log_pixels.push_back(std::log(static_cast<double>(w) * h));
+        for (size_t m = 0; m < 2; ++m) log_ms[m].push_back(std::log(t.ms[i][m]));
+      }
+      // Time ~ pixels^e: e = 1 is linear; above 1 the time grows faster than the pixel count.
+      const double e_bdis = slope(log_pixels, log_ms[0]), e_dis = slope(log_pixels, log_ms[1]);
+      for (const auto& [name, e] :
+           {std::pair<std::string, double>{balanced_name, e_bdis}, {"DIS fast", e_dis}}) {
+        std::printf("| scaling exponent e, time ~ pixels^e (least squares over the sizes above%s) | %s | "
+                    "320x240 .. 1920x1080 | | e = %.3f | | %.2f |\n",
+                    evicted ? ", caches emptied" : "", name.c_str(), e, e / e_dis);
+      }
+      std::fflush(stdout);
     }
   }
   return 0;

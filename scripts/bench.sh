@@ -9,7 +9,10 @@
 #  - image-size scaling on generated scenes (320x240 .. 1920x1080), ms and
 #    ms per megapixel, balanced and DIS fast, the sizes taking turns round by
 #    round, and the exponent e of a fit time ~ pixels^e over the sizes
-#    (1 = linear);
+#    (1 = linear); twice: frames back to back, and with the caches emptied
+#    before each frame (a buffer of three times the L3 read, untimed), which
+#    tells between-frame cache residency of the small frames from growth
+#    inside a frame;
 #  - instructions per frame (valgrind callgrind, one compute of the first pair
 #    of synthetic_colon_diffuse, after a warm-up compute) for balanced and DIS
 #    fast: a measure other load on the machine does not move; the same on the
