@@ -229,7 +229,7 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-/// Size of this core's last-level cache from sysfs ("32768K"), 32 MB if
+/// Size of cpu0's largest cache (the L3) from sysfs ("32768K"), 32 MB if
 /// unknown. Not sysconf(_SC_LEVEL3_CACHE_SIZE): glibc reports the whole
 /// package's L3 there on some CPUs (384 MB for a 32 MB L3 here).
 size_t lastLevelCacheBytes() {
