@@ -17,7 +17,6 @@
 namespace bdis {
 
 using detail::PyramidLevel;
-using detail::rectSum;
 using detail::ResidualSums;
 using detail::SampleSpan;
 
@@ -147,8 +146,8 @@ struct SearchPass {
     detail::PatchView view{};
     const uchar* valid = nullptr;  ///< left validity at (x0, y0), rows level->left_valid.step apart
     bool left_all_valid = false;
-    /// Every left pixel of the patch and every right pixel of the level
-    /// valid: an in-image match needs no validity lookup.
+    /// Every left pixel of the patch and every right pixel of its patch
+    /// row's band valid: an in-image match needs no validity lookup.
     bool no_invalid_pixels = false;
     const float* right_rows = nullptr;  ///< right image, column 0 of row y0
     size_t right_stride = 0;
@@ -169,13 +168,27 @@ struct SearchPass {
   bool loadPatch(const PyramidLevel& L, int x0, int y0);
   /// Makes the patch at (x0, y0) current with what loadPatch found out about it.
   void setCurrent(const PyramidLevel& L, int x0, int y0, bool left_all_valid);
+  /// The invalid pixels of the current patch row's band (level rows y0 ..
+  /// y0 + p - 1) per column, summed along the row (level width + 1 entries):
+  /// the count over columns [lo, hi) of the band is prefix[hi] - prefix[lo].
+  /// Made for each patch row from the validity masks: that answers every
+  /// query of the search, which asks only about the rows of its patch row,
+  /// and writes no level-sized integral image (8 MB per pair at 1920x1080).
+  struct ValidityBand {
+    std::vector<int> left_prefix, right_prefix;
+    std::vector<uchar> column_count;  ///< scratch: invalid pixels of each column of the band
+    bool left_all_valid = false, right_all_valid = false;
+    int leftInvalid(int lo, int hi) const { return left_all_valid ? 0 : left_prefix[hi] - left_prefix[lo]; }
+    int rightInvalid(int lo, int hi) const { return right_all_valid ? 0 : right_prefix[hi] - right_prefix[lo]; }
+  } band;
+  /// Makes `band` describe level rows y0 .. y0 + p - 1 of L.
+  void loadBand(const PyramidLevel& L, int y0);
   /// Whether the all-valid kernels may read right-image columns [lo, hi) on
   /// the current patch's rows: every template pixel valid, the columns inside
-  /// the image and none of them invalid (one count where the level has any).
+  /// the image and none of them invalid (one count where the band has any).
   bool allValidColumns(int lo, int hi) const {
     return cur.left_all_valid && lo >= 0 && hi <= cur.width &&
-           (cur.no_invalid_pixels ||
-            rectSum(cur.level->right_invalid, lo, cur.y0, hi, cur.y0 + params.patch_size) == 0);
+           (cur.no_invalid_pixels || band.rightInvalid(lo, hi) == 0);
   }
   /// The residual sums at disparity u; g_diff only `with_gradient` (a cost alone needs none).
   void patchSums(float u, ResidualSums& r, bool with_gradient = true);
@@ -295,6 +308,9 @@ void SearchPass::allocate(cv::Size size, int levels) {
   const int max_window_span = static_cast<int>(
       std::ceil(2.f * static_cast<float>(params.window_half_width) * params.window_step));
   row_buf.resize(static_cast<size_t>(p + max_window_span + 2));
+  band.left_prefix.resize(static_cast<size_t>(largest.width) + 1);
+  band.right_prefix.resize(static_cast<size_t>(largest.width) + 1);
+  band.column_count.resize(static_cast<size_t>(largest.width));
   costs.resize(static_cast<size_t>(window));
   likelihood.resize(static_cast<size_t>(window));
   window_sum.resize(static_cast<size_t>(window));
@@ -393,6 +409,7 @@ void SearchPass::matchLevel(int s, bool finest) {
   // the patch centre, times 2, or from the left or upper neighbour's result
   // when that fits this patch better (spatial propagation, as in DIS).
   for (int iy = 0; iy < ny; ++iy) {
+    loadBand(L, ys[static_cast<size_t>(iy)]);
     for (int ix = 0; ix < nx; ++ix) {
       const size_t k = static_cast<size_t>(iy * nx + ix);
       const int x0 = xs[static_cast<size_t>(ix)], y0 = ys[static_cast<size_t>(iy)];
@@ -418,6 +435,7 @@ void SearchPass::matchLevel(int s, bool finest) {
   // Backward pass: the right and lower neighbours get their say, then the
   // patch's posterior is taken at its final disparity.
   for (int iy = ny - 1; iy >= 0; --iy) {
+    loadBand(L, ys[static_cast<size_t>(iy)]);
     for (int ix = nx - 1; ix >= 0; --ix) {
       const size_t k = static_cast<size_t>(iy * nx + ix);
       const LoadedPatch& record = loaded_patches[k];
@@ -472,10 +490,43 @@ bool SearchPass::propagate(float& u, const float* candidates, int n) {
   return moved;
 }
 
+namespace {
+
+/// Adds each column's invalid pixels (valid is 0 or 1) of one mask row to `count`.
+BDIS_ROW_LOOP
+void countInvalidRow(int w, const uchar* __restrict valid, uchar* __restrict count) {
+  for (int x = 0; x < w; ++x) count[x] = static_cast<uchar>(count[x] + 1 - valid[x]);
+}
+
+/// The invalid pixels of rows y0 .. y0 + p - 1 of `valid` per column, as
+/// prefix sums along the row; false when there are none.
+bool bandPrefix(const cv::Mat1b& valid, int y0, int p, uchar* count, int* prefix) {
+  const int w = valid.cols;
+  std::fill(count, count + w, uchar{0});
+  for (int y = y0; y < y0 + p; ++y) countInvalidRow(w, valid[y], count);
+  int sum = 0;
+  prefix[0] = 0;
+  for (int x = 0; x < w; ++x) {
+    sum += count[x];
+    prefix[x + 1] = sum;
+  }
+  return sum > 0;
+}
+
+}  // namespace
+
+void SearchPass::loadBand(const PyramidLevel& L, int y0) {
+  const int p = params.patch_size;
+  band.left_all_valid = L.left_all_valid ||
+      !bandPrefix(L.left_valid, y0, p, band.column_count.data(), band.left_prefix.data());
+  band.right_all_valid = L.right_all_valid ||
+      !bandPrefix(L.right_valid, y0, p, band.column_count.data(), band.right_prefix.data());
+}
+
 bool SearchPass::loadPatch(const PyramidLevel& L, int x0, int y0) {
   const int p = params.patch_size;
   const int pp = p * p;
-  const int left_invalid = rectSum(L.left_invalid, x0, y0, x0 + p, y0 + p);
+  const int left_invalid = band.leftInvalid(x0, x0 + p);
   if (static_cast<float>(pp - left_invalid) < params.min_valid_share * static_cast<float>(pp)) {
     return false;  // mostly outside the rectified view
   }
@@ -491,7 +542,7 @@ void SearchPass::setCurrent(const PyramidLevel& L, int x0, int y0, bool left_all
   cur.view = {L.left[y0] + x0, L.left_gx[y0] + x0, rowStride(L.left)};
   cur.valid = L.left_valid[y0] + x0;
   cur.left_all_valid = left_all_valid;
-  cur.no_invalid_pixels = left_all_valid && L.right_all_valid;
+  cur.no_invalid_pixels = left_all_valid && band.right_all_valid;
   cur.right_rows = L.right[y0];
   cur.right_stride = rowStride(L.right);
   cur.width = L.width;
@@ -522,9 +573,7 @@ void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
   // Near or past the image edge: sum over the columns inside it, if those are valid.
   const detail::ColumnRange cols = detail::columnsInside(L.width, p, span);
   const int taps = span.frac > 0.f ? 1 : 0;
-  if (cols.empty() || L.right_all_valid ||
-      rectSum(L.right_invalid, span.base + cols.begin, cur.y0, span.base + cols.end + taps,
-              cur.y0 + p) == 0) {
+  if (cols.empty() || band.rightInvalid(span.base + cols.begin, span.base + cols.end + taps) == 0) {
     kernels->sums_clipped(cur.right_rows, cur.right_stride, p, span, cols, cur.view, r);
   } else {
     kernels->sums_masked(cur.right_rows, cur.right_stride, L.right_valid[cur.y0], L.right_valid.step1(),

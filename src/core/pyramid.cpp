@@ -122,49 +122,15 @@ BDIS_ROW_LOOP void mirror(const cv::Mat_<T>& src, cv::Mat_<T>& dst) {
   }
 }
 
-/// Integral image of the invalid pixels; all zeros, without the running
-/// sums, when every pixel is valid (rectified views usually have no border;
-/// `all_zero` remembers that, so a stream of such frames writes it once).
-/// Returns whether every pixel is valid.
-bool invalidCountIntegral(const cv::Mat1b& valid, cv::Mat1i& sum, bool& all_zero) {
-  if (cv::countNonZero(valid) == valid.rows * valid.cols) {
-    if (!all_zero) {
-      for (int y = 0; y < sum.rows; ++y) std::fill(sum[y], sum[y] + sum.cols, 0);
-      all_zero = true;
-    }
-    return true;
-  }
-  all_zero = false;
-  const int w = valid.cols;
-  std::fill(sum[0], sum[0] + w + 1, 0);
-  for (int y = 0; y < valid.rows; ++y) {
-    const uchar* v = valid[y];
-    const int* above = sum[y];
-    int* out = sum[y + 1];
-    out[0] = 0;
-    // The running count only up to the row's last invalid pixel (borders are
-    // usually a few columns at one side); past it the count is constant and
-    // the loop vectorises.
-    const void* last_invalid = memrchr(v, 0, static_cast<size_t>(w));
-    const int end = last_invalid ? static_cast<int>(static_cast<const uchar*>(last_invalid) - v) + 1 : 0;
-    int row = 0;
-    for (int x = 0; x < end; ++x) {
-      row += v[x] == 0;
-      out[x + 1] = above[x + 1] + row;
-    }
-    for (int x = end; x < w; ++x) out[x + 1] = above[x + 1] + row;
-  }
-  return false;
-}
+bool allValid(const cv::Mat1b& valid) { return cv::countNonZero(valid) == valid.rows * valid.cols; }
 
-void buildGradientAndValidityIntegrals(PyramidLevel& l) {
+void buildGradientAndValidityFlags(PyramidLevel& l) {
   horizontalGradient(l.left, l.left_valid, l.left_gx);
-  invalidCountIntegral(l.left_valid, l.left_invalid, l.left_invalid_all_zero);
-  l.right_all_valid = invalidCountIntegral(l.right_valid, l.right_invalid, l.right_invalid_all_zero);
+  l.left_all_valid = allValid(l.left_valid);
+  l.right_all_valid = allValid(l.right_valid);
 }
 
-/// Level buffers; a level that is not searched needs no gradient or
-/// integral images, and level 0 needs only its left validity when it is not
+/// Level buffers; a level that is not searched needs no gradient, and level 0 needs only its left validity when it is not
 /// searched (the grey input is downsampled straight to level 1).
 void allocate(PyramidLevel& l, int w, int h, int s, bool searched) {
   l.width = w;
@@ -185,11 +151,6 @@ void allocate(PyramidLevel& l, int w, int h, int s, bool searched) {
   }
   if (!searched) return;
   l.left_gx.create(h, w);
-  if (l.left_invalid.rows != h + 1 || l.left_invalid.cols != w + 1) {
-    l.left_invalid_all_zero = l.right_invalid_all_zero = false;  // new buffers
-  }
-  l.left_invalid.create(h + 1, w + 1);
-  l.right_invalid.create(h + 1, w + 1);
 }
 
 }  // namespace
@@ -228,7 +189,7 @@ void StereoPyramid::build(const cv::Mat& left, const cv::Mat& right, int num_lev
     downsample(fine.left, fine.left_valid, coarse.left, coarse.left_valid);
     downsample(fine.right, fine.right_valid, coarse.right, coarse.right_valid);
   }
-  for (int s = first_searched_level; s < num_levels; ++s) buildGradientAndValidityIntegrals(levels_[s]);
+  for (int s = first_searched_level; s < num_levels; ++s) buildGradientAndValidityFlags(levels_[s]);
 }
 
 void StereoPyramid::downsampleInputs(const cv::Mat& left, const cv::Mat& right) {
@@ -268,7 +229,7 @@ void StereoPyramid::buildMirrored(const StereoPyramid& src, int num_levels,
     mirror(from.left, l.right);
     mirror(from.right_valid, l.left_valid);
     mirror(from.left_valid, l.right_valid);
-    buildGradientAndValidityIntegrals(l);
+    buildGradientAndValidityFlags(l);
   }
 }
 

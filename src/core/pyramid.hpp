@@ -1,7 +1,7 @@
-// Image pyramid for the matcher: grey float images, gradients, validity masks
-// and the integral images of invalid pixels that pick a patch's fast path
-// (level 0 only the left validity unless it is searched). Every buffer is sized once
-// per input size; build() on a frame of the same size allocates nothing.
+// Image pyramid for the matcher: grey float images, gradients and validity
+// masks (level 0 only the left validity unless it is searched). Every buffer
+// is sized once per input size; build() on a frame of the same size
+// allocates nothing.
 #pragma once
 
 #include <vector>
@@ -24,24 +24,14 @@ struct PyramidLevel {
   cv::Mat1b left_valid;  ///< 1 where the pixel lies inside the rectified view
   cv::Mat1b right_valid;  ///< a view into right_valid_padded: kRightPadding columns of 0 each side
   cv::Mat1b right_valid_padded;
-  // Integral images ((h+1) x (w+1)) of the invalid pixels: which patches
-  // and spans may take the all-valid paths.
-  cv::Mat1i left_invalid;   ///< count of invalid left pixels
-  cv::Mat1i right_invalid;  ///< count of invalid right pixels
-  bool right_all_valid = false;  ///< no invalid right pixel: right_invalid is all 0
-  bool left_invalid_all_zero = false, right_invalid_all_zero = false;  ///< integrals known to be 0
+  bool left_all_valid = false;   ///< no invalid left pixel
+  bool right_all_valid = false;  ///< no invalid right pixel
 };
-
-/// Sum of an integral image over [x0, x1) x [y0, y1).
-template <typename T>
-inline T rectSum(const cv::Mat_<T>& integral, int x0, int y0, int x1, int y1) {
-  return integral(y1, x1) - integral(y0, x1) - integral(y1, x0) + integral(y0, x0);
-}
 
 class StereoPyramid {
  public:
   /// Builds levels 0..num_levels-1 from 8-bit mono or BGR inputs of equal size;
-  /// gradients and integral images only from `first_searched_level` on.
+  /// gradients only from `first_searched_level` on.
   void build(const cv::Mat& left, const cv::Mat& right, int num_levels, int first_searched_level);
   /// The pyramid of the mirrored pair (the right image, flipped, as the left
   /// one and vice versa) from `src`'s levels, without converting or
