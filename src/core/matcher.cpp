@@ -112,7 +112,13 @@ struct SearchPass {
   const detail::KernelSet* kernels = nullptr;  ///< inner loops for this patch size and CPU
 
   // Per-level state, sized on the first frame of a given size.
-  std::vector<cv::Mat1f> init_disparity;  ///< dense coarse-to-fine initialisation per level
+  /// Dense coarse-to-fine initialisation per level, above the finest (which
+  /// initialises nothing: its fused rows pass through fused_row).
+  std::vector<cv::Mat1f> init_disparity;
+  std::vector<float> fused_row;
+  /// Whether level_confidence is kept: the check's pass needs only its
+  /// disparity, so it writes its confidence into one reused row.
+  bool keeps_confidence = true;
   /// fuseLevel's accumulators: a band of fuseBandRows() level rows slides down
   /// the level, so they stay in cache at any image size.
   cv::Mat1f fused_num, fused_den, conf_sum, var_num, var_den;
@@ -248,6 +254,7 @@ struct Matcher::Impl {
 };
 
 Matcher::Matcher(const MatcherParams& params) : impl_(std::make_unique<Impl>()) {
+  impl_->right_pass.keeps_confidence = false;
   setParams(params);
 }
 Matcher::~Matcher() = default;
@@ -283,12 +290,15 @@ void SearchPass::allocate(cv::Size size, int levels) {
   // Every create()/resize() below is a no-op when the size is unchanged, so a
   // steady stream of equal frames allocates nothing.
   init_disparity.resize(static_cast<size_t>(levels) + 1);
-  for (int s = 0; s <= levels; ++s) {
+  for (int s = params.finest_level + 1; s <= levels; ++s) {
     init_disparity[s].create(std::max(1, size.height >> s), std::max(1, size.width >> s));
   }
   // Level-sized buffers are allocated at the largest searched level (the finest).
   const cv::Size largest(size.width >> params.finest_level, size.height >> params.finest_level);
-  for (cv::Mat1f* m : {&level_disparity, &level_confidence, &level_variance}) m->create(largest);
+  level_disparity.create(largest);
+  level_confidence.create(keeps_confidence ? largest.height : 1, largest.width);
+  if (params.compute_variance) level_variance.create(largest);
+  fused_row.resize(static_cast<size_t>(largest.width));
   const int band_rows = fuseBandRows(params);
   for (cv::Mat1f* m : {&fused_num, &fused_den, &conf_sum, &var_num, &var_den}) {
     m->create(band_rows, largest.width);
@@ -899,7 +909,6 @@ void SearchPass::finishFusedRows(int s, bool finest, int band_top, int end) {
   // patch survived, otherwise this level's own initialisation.
   const int w = pyramid.level(s).width;
   const bool variance = params.compute_variance && finest;
-  cv::Mat1f& init = init_disparity[s];
   const cv::Mat1f& coarse = init_disparity[s + 1];
   for (int y = band_top; y < end; ++y) {
     const int by = y - band_top;
@@ -907,7 +916,7 @@ void SearchPass::finishFusedRows(int s, bool finest, int band_top, int end) {
     const float* dr = fused_den[by];
     const float* cr = conf_sum[by];
     const float* coarse_row = coarse[std::min(y / 2, coarse.rows - 1)];
-    float* ir = init[y];
+    float* ir = finest ? fused_row.data() : init_disparity[s][y];
     fusedRow(w, nr, dr, ir);
     for (int x = 0; x < w; ++x) {
       if (!(dr[x] > 0.f)) ir[x] = 2.f * coarse_row[std::min(x / 2, coarse.cols - 1)];  // rare
@@ -915,7 +924,7 @@ void SearchPass::finishFusedRows(int s, bool finest, int band_top, int end) {
     if (!finest) continue;
     float* dout = level_disparity[y];
     floorRow(w, ir, dr, cr, cover_x.data(), cover_y[static_cast<size_t>(y)],
-             params.confidence_floor, dout, level_confidence[y]);
+             params.confidence_floor, dout, level_confidence[keeps_confidence ? y : 0]);
     if (!variance) continue;
     float* vout = level_variance[y];
     const float* vn = var_num[by];
