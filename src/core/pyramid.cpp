@@ -229,7 +229,9 @@ void StereoPyramid::buildMirrored(const StereoPyramid& src, int num_levels,
     mirror(from.left, l.right);
     mirror(from.right_valid, l.left_valid);
     mirror(from.left_valid, l.right_valid);
-    buildGradientAndValidityFlags(l);
+    horizontalGradient(l.left, l.left_valid, l.left_gx);
+    l.left_all_valid = from.right_all_valid;  // mirrored, not counted again
+    l.right_all_valid = from.left_all_valid;
   }
 }
 
