@@ -179,13 +179,17 @@ struct SearchPass {
   /// the count over columns [lo, hi) of the band is prefix[hi] - prefix[lo].
   /// Made for each patch row from the validity masks: that answers every
   /// query of the search, which asks only about the rows of its patch row,
-  /// and writes no level-sized integral image (8 MB per pair at 1920x1080).
+  /// and writes no level-sized integral images (4 MB per pair at 1920x1080).
   struct ValidityBand {
     std::vector<int> left_prefix, right_prefix;
     std::vector<uchar> column_count;  ///< scratch: invalid pixels of each column of the band
     bool left_all_valid = false, right_all_valid = false;
-    int leftInvalid(int lo, int hi) const { return left_all_valid ? 0 : left_prefix[hi] - left_prefix[lo]; }
-    int rightInvalid(int lo, int hi) const { return right_all_valid ? 0 : right_prefix[hi] - right_prefix[lo]; }
+    int leftInvalid(int lo, int hi) const {
+      return left_all_valid ? 0 : left_prefix[hi] - left_prefix[lo];
+    }
+    int rightInvalid(int lo, int hi) const {
+      return right_all_valid ? 0 : right_prefix[hi] - right_prefix[lo];
+    }
   } band;
   /// Makes `band` describe level rows y0 .. y0 + p - 1 of L.
   void loadBand(const PyramidLevel& L, int y0);

@@ -130,8 +130,9 @@ void buildGradientAndValidityFlags(PyramidLevel& l) {
   l.right_all_valid = allValid(l.right_valid);
 }
 
-/// Level buffers; a level that is not searched needs no gradient, and level 0 needs only its left validity when it is not
-/// searched (the grey input is downsampled straight to level 1).
+/// Level buffers; a level that is not searched needs no gradient, and level
+/// 0 needs only its left validity when it is not searched (the grey input is
+/// downsampled straight to level 1).
 void allocate(PyramidLevel& l, int w, int h, int s, bool searched) {
   l.width = w;
   l.height = h;
