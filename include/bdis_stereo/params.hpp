@@ -27,6 +27,9 @@ struct MatcherParams {
   float coarse_overlap = 0.4f;  ///< the same on the coarser levels (they only initialise the next)
   bool mean_normalization = true;  ///< subtract patch means (brightness offset cancels)
   bool propagation = true;  ///< try the neighbouring patches' disparities as starts (as DIS does)
+  /// Finest level: forward and backward pass per band of this many patch
+  /// rows, which stays in cache; 0 = over the whole level at once, as DIS.
+  int search_band_rows = 8;
   // Bayesian patch posterior.
   float min_valid_share = 0.25f;   ///< gamma: patches with fewer valid pixels are discarded
   int window_half_width = 2;       ///< n: posterior window has 2n+1 samples

@@ -144,6 +144,9 @@ struct SearchPass {
   /// level_confidence / level_variance.
   void run(int levels);
   void matchLevel(int s, bool finest);
+  /// DIS's two passes over patch rows [top, bottom) of the level's grid (xs, ys).
+  void forwardPass(const PyramidLevel& L, const cv::Mat1f& coarse, int top, int bottom);
+  void backwardPass(const PyramidLevel& L, int top, int bottom);
   // The patch being searched: template, gradient and validity read in place
   // from the level, plus the constant sums the fast path takes from integral images.
   struct CurrentPatch {
@@ -417,12 +420,29 @@ void SearchPass::matchLevel(int s, bool finest) {
     loaded_patches.resize(num_patches);
   }
 
-  const cv::Mat1f& coarse = init_disparity[s + 1];
+  // The finest level is searched in bands of search_band_rows patch rows,
+  // the forward and then the backward pass over each, so that the backward
+  // pass finds the band's level rows still in cache (the searched level of a
+  // 1920x1080 frame is about 7 MB). The backward pass takes no lower neighbour
+  // across a band's bottom edge; the next band's forward pass starts from the
+  // final results of its upper neighbours.
+  const int band_rows = finest && params.search_band_rows > 0 ? params.search_band_rows : ny;
+  for (int top = 0; top < ny; top += band_rows) {
+    const int bottom = std::min(ny, top + band_rows);
+    forwardPass(L, init_disparity[s + 1], top, bottom);
+    backwardPass(L, top, bottom);
+  }
+  fuseLevel(s, finest);
+}
+
+void SearchPass::forwardPass(const PyramidLevel& L, const cv::Mat1f& coarse, int top, int bottom) {
+  const int p = params.patch_size;
+  const int nx = static_cast<int>(xs.size());
   const float half = 0.5f * static_cast<float>(p - 1);
   // Forward pass (raster order): start from the coarser level's disparity at
   // the patch centre, times 2, or from the left or upper neighbour's result
   // when that fits this patch better (spatial propagation, as in DIS).
-  for (int iy = 0; iy < ny; ++iy) {
+  for (int iy = top; iy < bottom; ++iy) {
     loadBand(L, ys[static_cast<size_t>(iy)]);
     for (int ix = 0; ix < nx; ++ix) {
       const size_t k = static_cast<size_t>(iy * nx + ix);
@@ -446,9 +466,13 @@ void SearchPass::matchLevel(int s, bool finest) {
       patches[k].disparity = refinePatch(u);
     }
   }
+}
+
+void SearchPass::backwardPass(const PyramidLevel& L, int top, int bottom) {
+  const int nx = static_cast<int>(xs.size());
   // Backward pass: the right and lower neighbours get their say, then the
   // patch's posterior is taken at its final disparity.
-  for (int iy = ny - 1; iy >= 0; --iy) {
+  for (int iy = bottom - 1; iy >= top; --iy) {
     loadBand(L, ys[static_cast<size_t>(iy)]);
     for (int ix = nx - 1; ix >= 0; --ix) {
       const size_t k = static_cast<size_t>(iy * nx + ix);
@@ -459,13 +483,12 @@ void SearchPass::matchLevel(int s, bool finest) {
       float u = patches[k].disparity;
       if (params.propagation) {
         float candidates[2];
-        const int n = neighbourCandidates(k, ix + 1 < nx, 1, iy + 1 < ny, nx, candidates);
+        const int n = neighbourCandidates(k, ix + 1 < nx, 1, iy + 1 < bottom, nx, candidates);
         if (propagate(u, candidates, n)) u = refinePatch(u);
       }
       patches[k] = patchPosterior(u);
     }
   }
-  fuseLevel(s, finest);
 }
 
 bool SearchPass::propagate(float& u, const float* candidates, int n) {

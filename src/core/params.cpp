@@ -72,6 +72,9 @@ const std::vector<ParamField>& paramFields() {
             "subtract patch means so a brightness offset between cameras cancels"),
       field("propagation", &MatcherParams::propagation, 0, 1,
             "start each patch from its neighbour's disparity when that fits better (DIS's spatial propagation)"),
+      field("search_band_rows", &MatcherParams::search_band_rows, 0, 10000,
+            "finest level: forward and backward pass per band of this many patch rows, which "
+            "stays in cache; 0 = the whole level at once (DIS)"),
       field("min_valid_share", &MatcherParams::min_valid_share, 0.0, 1.0,
             "gamma: minimum share of valid (non-black) pixels in a patch"),
       field("window_half_width", &MatcherParams::window_half_width, 1, 10,
