@@ -148,7 +148,7 @@ struct SearchPass {
   void forwardPass(const PyramidLevel& L, const cv::Mat1f& coarse, int top, int bottom);
   void backwardPass(const PyramidLevel& L, int top, int bottom);
   // The patch being searched: template, gradient and validity read in place
-  // from the level, plus the constant sums the fast path takes from integral images.
+  // from the level, plus the template's constant sums the fast path needs.
   struct CurrentPatch {
     const PyramidLevel* level = nullptr;
     int x0 = 0, y0 = 0;
