@@ -60,6 +60,14 @@ int fuseBandRows(const MatcherParams& P) {
   return p + 4 * std::max(patchStride(p, P.overlap), patchStride(p, P.coarse_overlap));
 }
 
+/// Level rows that a band of search_band_rows patch rows spans on the finest
+/// level (the whole level when it is searched at once).
+int searchBandLevelRows(const MatcherParams& P, int level_height) {
+  if (P.search_band_rows <= 0) return level_height;
+  const int stride = patchStride(P.patch_size, P.overlap);
+  return std::min(level_height, (P.search_band_rows - 1) * stride + P.patch_size);
+}
+
 std::string describe(const cv::Mat& m) {
   return std::to_string(m.cols) + "x" + std::to_string(m.rows) + " type " +
          cv::typeToString(m.type());
@@ -354,7 +362,11 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
     // The check only confirms or refutes: a sparser grid does.
     m.right_pass.params.overlap = P.lr_check_overlap;
     // Mirroring turns "right as reference" into the same left-reference search.
-    m.right_pass.pyramid.buildMirrored(m.left_pass.pyramid, levels, m.right_pass.params.finest_level);
+    // Its finest level is mirrored a search band at a time (see buildMirrored).
+    const int check_finest = m.right_pass.params.finest_level;
+    m.right_pass.pyramid.buildMirrored(
+        m.left_pass.pyramid, levels, check_finest,
+        searchBandLevelRows(m.right_pass.params, m.left_pass.pyramid.level(check_finest).height));
     m.right_pass.run(levels);
     m.leftRightCheck(P.lr_check_tolerance / static_cast<float>(1 << finest));
   }
@@ -425,10 +437,12 @@ void SearchPass::matchLevel(int s, bool finest) {
   // pass finds the band's level rows still in cache (the searched level of a
   // 1920x1080 frame is about 7 MB). The backward pass takes no lower neighbour
   // across a band's bottom edge; the next band's forward pass starts from the
-  // final results of its upper neighbours.
+  // final results of its upper neighbours. The check's pass mirrors each
+  // band's rows just before it searches them (StereoPyramid::loadRows).
   const int band_rows = finest && params.search_band_rows > 0 ? params.search_band_rows : ny;
   for (int top = 0; top < ny; top += band_rows) {
     const int bottom = std::min(ny, top + band_rows);
+    pyramid.loadRows(s, ys[static_cast<size_t>(top)], ys[static_cast<size_t>(bottom - 1)] + p);
     forwardPass(L, init_disparity[s + 1], top, bottom);
     backwardPass(L, top, bottom);
   }
@@ -537,10 +551,9 @@ void countInvalidRow(int w, const uchar* __restrict valid, uchar* __restrict cou
 
 /// The invalid pixels of rows y0 .. y0 + p - 1 of `valid` per column, as
 /// prefix sums along the row; false when there are none.
-bool bandPrefix(const cv::Mat1b& valid, int y0, int p, uchar* count, int* prefix) {
-  const int w = valid.cols;
+bool bandPrefix(const uchar* valid, size_t stride, int w, int p, uchar* count, int* prefix) {
   std::fill(count, count + w, uchar{0});
-  for (int y = y0; y < y0 + p; ++y) countInvalidRow(w, valid[y], count);
+  for (int y = 0; y < p; ++y) countInvalidRow(w, valid + static_cast<size_t>(y) * stride, count);
   int sum = 0;
   prefix[0] = 0;
   for (int x = 0; x < w; ++x) {
@@ -555,9 +568,11 @@ bool bandPrefix(const cv::Mat1b& valid, int y0, int p, uchar* count, int* prefix
 void SearchPass::loadBand(const PyramidLevel& L, int y0) {
   const int p = params.patch_size;
   band.left_all_valid = L.left_all_valid ||
-      !bandPrefix(L.left_valid, y0, p, band.column_count.data(), band.left_prefix.data());
+      !bandPrefix(L.leftValidRow(y0), L.left_valid.step1(), L.width, p, band.column_count.data(),
+                  band.left_prefix.data());
   band.right_all_valid = L.right_all_valid ||
-      !bandPrefix(L.right_valid, y0, p, band.column_count.data(), band.right_prefix.data());
+      !bandPrefix(L.rightValidRow(y0), L.right_valid.step1(), L.width, p, band.column_count.data(),
+                  band.right_prefix.data());
 }
 
 bool SearchPass::loadPatch(const PyramidLevel& L, int x0, int y0) {
@@ -576,11 +591,11 @@ void SearchPass::setCurrent(const PyramidLevel& L, int x0, int y0, bool left_all
   cur.level = &L;
   cur.x0 = x0;
   cur.y0 = y0;
-  cur.view = {L.left[y0] + x0, L.left_gx[y0] + x0, rowStride(L.left)};
-  cur.valid = L.left_valid[y0] + x0;
+  cur.view = {L.leftRow(y0) + x0, L.gradientRow(y0) + x0, rowStride(L.left)};
+  cur.valid = L.leftValidRow(y0) + x0;
   cur.left_all_valid = left_all_valid;
   cur.no_invalid_pixels = left_all_valid && band.right_all_valid;
-  cur.right_rows = L.right[y0];
+  cur.right_rows = L.rightRow(y0);
   cur.right_stride = rowStride(L.right);
   cur.width = L.width;
 }
@@ -603,8 +618,9 @@ void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
   const PyramidLevel& L = *cur.level;
   const int p = params.patch_size;
   if (!cur.left_all_valid) {
-    kernels->sums_masked(cur.right_rows, cur.right_stride, L.right_valid[cur.y0], L.right_valid.step1(),
-                         L.width, p, span, cur.view, cur.valid, L.left_valid.step1(), r);
+    kernels->sums_masked(cur.right_rows, cur.right_stride, L.rightValidRow(cur.y0),
+                         L.right_valid.step1(), L.width, p, span, cur.view, cur.valid,
+                         L.left_valid.step1(), r);
     return;
   }
   // Near or past the image edge: sum over the columns inside it, if those are valid.
@@ -613,8 +629,9 @@ void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
   if (cols.empty() || band.rightInvalid(span.base + cols.begin, span.base + cols.end + taps) == 0) {
     kernels->sums_clipped(cur.right_rows, cur.right_stride, p, span, cols, cur.view, r);
   } else {
-    kernels->sums_masked(cur.right_rows, cur.right_stride, L.right_valid[cur.y0], L.right_valid.step1(),
-                         L.width, p, span, cur.view, cur.valid, L.left_valid.step1(), r);
+    kernels->sums_masked(cur.right_rows, cur.right_stride, L.rightValidRow(cur.y0),
+                         L.right_valid.step1(), L.width, p, span, cur.view, cur.valid,
+                         L.left_valid.step1(), r);
   }
 }
 
@@ -700,13 +717,12 @@ float SearchPass::windowCosts(float u) {
   const float delta = params.window_step;
   const int p = params.patch_size;
   const int step = static_cast<int>(delta);
-  const PyramidLevel& L = *cur.level;
   if (static_cast<float>(step) == delta) {
     // Samples whole pixels apart: one interpolated row serves them all.
     const SampleSpan lo = detail::sampleSpan(cur.x0, u + static_cast<float>(n) * delta);
     const int last = lo.base + p + 2 * n * step;  // rightmost column read
     if (allValidColumns(lo.base, last + 1)) {
-      kernels->window_costs(L.right[cur.y0], rowStride(L.right), p, lo.base, lo.frac, 2 * n + 1,
+      kernels->window_costs(cur.right_rows, cur.right_stride, p, lo.base, lo.frac, 2 * n + 1,
                             step, cur.view, params.mean_normalization, row_buf.data(),
                             window_sum.data(), window_sq.data(), costs.data());
       return static_cast<float>(p * p);

@@ -81,43 +81,43 @@ float edgeGradient(const float* p, const uchar* v, int w, int x) {
   return 0.f;
 }
 
+/// Horizontal gradient of one row of w pixels, from valid neighbours only.
 BDIS_ROW_LOOP
-void horizontalGradient(const cv::Mat1f& img, const cv::Mat1b& valid, cv::Mat1f& gx) {
-  const int w = img.cols;
-  for (int y = 0; y < img.rows; ++y) {
-    const float* p = img[y];
-    const uchar* v = valid[y];
-    float* g = gx[y];
-    if (w > 1 && std::memchr(v, 0, static_cast<size_t>(w)) == nullptr) {
-      // A row without invalid pixels (the usual case): a loop that vectorises.
-      g[0] = p[1] - p[0];
-      for (int x = 1; x + 1 < w; ++x) g[x] = 0.5f * (p[x + 1] - p[x - 1]);
-      g[w - 1] = p[w - 1] - p[w - 2];
-      continue;
-    }
-    // A row with invalid pixels (every row, with a black border down one
-    // side): the interior without branches, so that it vectorises too.
-    g[0] = edgeGradient(p, v, w, 0);
-    for (int x = 1; x + 1 < w; ++x) {
-      const bool has_left = v[x - 1] != 0, has_right = v[x + 1] != 0;
-      const float central = 0.5f * (p[x + 1] - p[x - 1]);
-      const float forward = p[x + 1] - p[x];
-      const float backward = p[x] - p[x - 1];
-      const float one_sided = has_right ? forward : has_left ? backward : 0.f;
-      const float value = has_left && has_right ? central : one_sided;
-      g[x] = v[x] != 0 ? value : 0.f;
-    }
-    if (w > 1) g[w - 1] = edgeGradient(p, v, w, w - 1);
+void gradientRow(const float* __restrict p, const uchar* __restrict v, int w, float* __restrict g) {
+  if (w > 1 && std::memchr(v, 0, static_cast<size_t>(w)) == nullptr) {
+    // A row without invalid pixels (the usual case): a loop that vectorises.
+    g[0] = p[1] - p[0];
+    for (int x = 1; x + 1 < w; ++x) g[x] = 0.5f * (p[x + 1] - p[x - 1]);
+    g[w - 1] = p[w - 1] - p[w - 2];
+    return;
   }
+  // A row with invalid pixels (every row, with a black border down one
+  // side): the interior without branches, so that it vectorises too.
+  g[0] = edgeGradient(p, v, w, 0);
+  for (int x = 1; x + 1 < w; ++x) {
+    const bool has_left = v[x - 1] != 0, has_right = v[x + 1] != 0;
+    const float central = 0.5f * (p[x + 1] - p[x - 1]);
+    const float forward = p[x + 1] - p[x];
+    const float backward = p[x] - p[x - 1];
+    const float one_sided = has_right ? forward : has_left ? backward : 0.f;
+    const float value = has_left && has_right ? central : one_sided;
+    g[x] = v[x] != 0 ? value : 0.f;
+  }
+  if (w > 1) g[w - 1] = edgeGradient(p, v, w, w - 1);
 }
 
-/// dst = src flipped left-right (dst already sized).
+/// Gradient of the first `rows` stored rows of a level's left image.
+void horizontalGradient(PyramidLevel& l, int rows) {
+  for (int y = 0; y < rows; ++y) gradientRow(l.left[y], l.left_valid[y], l.width, l.left_gx[y]);
+}
+
+/// dst row i = src row from + i flipped left-right, for src rows [from, to).
 template <typename T>
-BDIS_ROW_LOOP void mirror(const cv::Mat_<T>& src, cv::Mat_<T>& dst) {
+BDIS_ROW_LOOP void mirrorRows(const cv::Mat_<T>& src, int from, int to, cv::Mat_<T>& dst) {
   const int w = src.cols;
-  for (int y = 0; y < src.rows; ++y) {
+  for (int y = from; y < to; ++y) {
     const T* s = src[y];
-    T* d = dst[y];
+    T* d = dst[y - from];
     for (int x = 0; x < w; ++x) d[x] = s[w - 1 - x];
   }
 }
@@ -125,33 +125,35 @@ BDIS_ROW_LOOP void mirror(const cv::Mat_<T>& src, cv::Mat_<T>& dst) {
 bool allValid(const cv::Mat1b& valid) { return cv::countNonZero(valid) == valid.rows * valid.cols; }
 
 void buildGradientAndValidityFlags(PyramidLevel& l) {
-  horizontalGradient(l.left, l.left_valid, l.left_gx);
+  horizontalGradient(l, l.height);
   l.left_all_valid = allValid(l.left_valid);
   l.right_all_valid = allValid(l.right_valid);
 }
 
-/// Level buffers; a level that is not searched needs no gradient, and level
-/// 0 needs only its left validity when it is not searched (the grey input is
-/// downsampled straight to level 1).
-void allocate(PyramidLevel& l, int w, int h, int s, bool searched) {
+/// Level buffers for `rows` stored rows (the level's height unless only a
+/// band of it is kept); a level that is not searched needs no gradient, and
+/// level 0 needs only its left validity when it is not searched (the grey
+/// input is downsampled straight to level 1).
+void allocate(PyramidLevel& l, int w, int h, int s, bool searched, int rows) {
   l.width = w;
   l.height = h;
-  l.left_valid.create(h, w);
+  l.first_row = 0;
+  l.left_valid.create(rows, w);
   if (s == 0 && !searched) return;
-  if (l.right_valid_padded.rows != h || l.right_valid_padded.cols != w + 2 * kRightPadding) {
+  if (l.right_valid_padded.rows != rows || l.right_valid_padded.cols != w + 2 * kRightPadding) {
     // Outside the image counts as invalid: the masked kernels read the padding.
-    l.right_valid_padded.create(h, w + 2 * kRightPadding);
+    l.right_valid_padded.create(rows, w + 2 * kRightPadding);
     l.right_valid_padded.setTo(0);
     l.right_valid = l.right_valid_padded.colRange(kRightPadding, kRightPadding + w);
   }
-  l.left.create(h, w);
-  if (l.right_padded.rows != h || l.right_padded.cols != w + 2 * kRightPadding) {
-    l.right_padded.create(h, w + 2 * kRightPadding);
+  l.left.create(rows, w);
+  if (l.right_padded.rows != rows || l.right_padded.cols != w + 2 * kRightPadding) {
+    l.right_padded.create(rows, w + 2 * kRightPadding);
     l.right_padded.setTo(0.f);  // only the padding stays 0; the view is rewritten per frame
     l.right = l.right_padded.colRange(kRightPadding, kRightPadding + w);
   }
   if (!searched) return;
-  l.left_gx.create(h, w);
+  l.left_gx.create(rows, w);
 }
 
 }  // namespace
@@ -168,9 +170,11 @@ void StereoPyramid::build(const cv::Mat& left, const cv::Mat& right, int num_lev
                           int first_searched_level) {
   size_ = left.size();
   levels_.resize(static_cast<size_t>(num_levels));  // no-op once sized
+  banded_level_ = -1;
   for (int s = 0; s < num_levels; ++s) {
     // Mat::create is a no-op when size and type are unchanged.
-    allocate(levels_[s], left.cols >> s, left.rows >> s, s, s >= first_searched_level);
+    const int h = left.rows >> s;
+    allocate(levels_[s], left.cols >> s, h, s, s >= first_searched_level, h);
   }
   PyramidLevel& base = levels_[0];
   int first_downsampled = 1;
@@ -218,22 +222,37 @@ void StereoPyramid::downsampleInputs(const cv::Mat& left, const cv::Mat& right) 
   }
 }
 
-void StereoPyramid::buildMirrored(const StereoPyramid& src, int num_levels,
-                                  int first_searched_level) {
+void StereoPyramid::buildMirrored(const StereoPyramid& src, int num_levels, int first_searched_level,
+                                  int first_level_rows) {
   size_ = src.size_;
   levels_.resize(static_cast<size_t>(num_levels));
+  mirrored_from_ = &src;
+  banded_level_ = first_searched_level;
   for (int s = first_searched_level; s < num_levels; ++s) {
     const PyramidLevel& from = src.levels_[s];
     PyramidLevel& l = levels_[s];
-    allocate(l, from.width, from.height, s, true);
-    mirror(from.right, l.left);
-    mirror(from.left, l.right);
-    mirror(from.right_valid, l.left_valid);
-    mirror(from.left_valid, l.right_valid);
-    horizontalGradient(l.left, l.left_valid, l.left_gx);
+    const bool banded = s == banded_level_;
+    allocate(l, from.width, from.height, s, true,
+             banded ? std::clamp(first_level_rows, 1, from.height) : from.height);
     l.left_all_valid = from.right_all_valid;  // mirrored, not counted again
     l.right_all_valid = from.left_all_valid;
+    if (!banded) loadMirroredRows(l, from, 0, from.height);
   }
+}
+
+void StereoPyramid::loadRows(int s, int from, int to) {
+  if (s != banded_level_) return;
+  loadMirroredRows(levels_[s], mirrored_from_->levels_[s], from, to);
+}
+
+void StereoPyramid::loadMirroredRows(PyramidLevel& l, const PyramidLevel& src, int from, int to) {
+  CV_Assert(0 <= from && from < to && to <= l.height && to - from <= l.left.rows);
+  l.first_row = from;
+  mirrorRows(src.right, from, to, l.left);
+  mirrorRows(src.left, from, to, l.right);
+  mirrorRows(src.right_valid, from, to, l.left_valid);
+  mirrorRows(src.left_valid, from, to, l.right_valid);
+  horizontalGradient(l, to - from);
 }
 
 }  // namespace detail
