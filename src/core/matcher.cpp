@@ -617,22 +617,21 @@ void SearchPass::patchSums(float u, ResidualSums& r, bool with_gradient) {
 void SearchPass::patchSumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
   const PyramidLevel& L = *cur.level;
   const int p = params.patch_size;
-  if (!cur.left_all_valid) {
-    kernels->sums_masked(cur.right_rows, cur.right_stride, L.rightValidRow(cur.y0),
-                         L.right_valid.step1(), L.width, p, span, cur.view, cur.valid,
-                         L.left_valid.step1(), r);
-    return;
+  // Near or past the image edge with a fully valid template: sum over the
+  // columns inside the image, if those are valid.
+  if (cur.left_all_valid) {
+    const detail::ColumnRange cols = detail::columnsInside(L.width, p, span);
+    const int taps = span.frac > 0.f ? 1 : 0;
+    const int lo = span.base + cols.begin, hi = span.base + cols.end + taps;
+    if (cols.empty() || band.rightInvalid(lo, hi) == 0) {
+      kernels->sums_clipped(cur.right_rows, cur.right_stride, p, span, cols, cur.view, r);
+      return;
+    }
   }
-  // Near or past the image edge: sum over the columns inside it, if those are valid.
-  const detail::ColumnRange cols = detail::columnsInside(L.width, p, span);
-  const int taps = span.frac > 0.f ? 1 : 0;
-  if (cols.empty() || band.rightInvalid(span.base + cols.begin, span.base + cols.end + taps) == 0) {
-    kernels->sums_clipped(cur.right_rows, cur.right_stride, p, span, cols, cur.view, r);
-  } else {
-    kernels->sums_masked(cur.right_rows, cur.right_stride, L.rightValidRow(cur.y0),
-                         L.right_valid.step1(), L.width, p, span, cur.view, cur.valid,
-                         L.left_valid.step1(), r);
-  }
+  // Invalid pixels in the template or under the span: every pixel weighted by both validities.
+  kernels->sums_masked(cur.right_rows, cur.right_stride, L.rightValidRow(cur.y0),
+                       L.right_valid.step1(), L.width, p, span, cur.view, cur.valid,
+                       L.left_valid.step1(), r);
 }
 
 float SearchPass::templateVariance() const {

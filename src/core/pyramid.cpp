@@ -170,6 +170,7 @@ void StereoPyramid::build(const cv::Mat& left, const cv::Mat& right, int num_lev
                           int first_searched_level) {
   size_ = left.size();
   levels_.resize(static_cast<size_t>(num_levels));  // no-op once sized
+  mirrored_from_ = nullptr;
   banded_level_ = -1;
   for (int s = 0; s < num_levels; ++s) {
     // Mat::create is a no-op when size and type are unchanged.
