@@ -863,6 +863,118 @@ TEST(MatcherOutputs, SmallSigmaSKeepsVarianceFiniteWhereEstimated) {
   }
 }
 
+// The result's finest level streams into the output a few rows at a time
+// (through a ring of level rows): every output row must be written, at every
+// finest level and for heights that leave a partial ring or band at the
+// bottom. A result pre-filled with values the matcher never writes shows a
+// missed row, and a fresh result must agree with it bit for bit.
+TEST(MatcherOutputs, EveryOutputRowIsWrittenAtEachFinestLevel) {
+  const cv::Size sizes[] = {{96, 481}, {161, 263}, {200, 64}};
+  for (int finest = 0; finest <= 3; ++finest) {
+    for (const cv::Size& size : sizes) {
+      for (bool variance : {false, true}) {
+        SCOPED_TRACE("finest_level " + std::to_string(finest) + ", " + std::to_string(size.width) +
+                     "x" + std::to_string(size.height) + (variance ? " with variance" : ""));
+        MatcherParams params;
+        params.finest_level = finest;
+        params.coarsest_level = std::max(params.coarsest_level, finest);
+        params.compute_variance = variance;
+        const StereoPair pair = texturedPair(size.width, size.height, {5.6, 0.0});
+        MatchResult prefilled;
+        prefilled.disparity = cv::Mat(size, CV_32FC1, cv::Scalar(-7.f));
+        prefilled.confidence = cv::Mat(size, CV_32FC1, cv::Scalar(7.f));
+        prefilled.variance = cv::Mat(size, CV_32FC1, cv::Scalar(-7.f));
+        Matcher matcher(params);
+        matcher.compute(pair.left, pair.right, prefilled);
+        expectValidResult(prefilled, size, variance);
+        EXPECT_EQ(cv::countNonZero(prefilled.disparity == -7.f), 0);
+        EXPECT_GT(density(prefilled.disparity), 0.3);
+        const MatchResult fresh = run(params, pair.left, pair.right);
+        EXPECT_TRUE(identical(prefilled.disparity, fresh.disparity));
+        EXPECT_TRUE(identical(prefilled.confidence, fresh.confidence));
+        EXPECT_TRUE(identical(prefilled.variance, fresh.variance));
+      }
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------
+// 7b. The left-right check.
+// A textured foreground strip at disparity 20 in front of a textured
+// background at disparity 4. The right camera does not see the background
+// just left of the strip's left edge (16 px wide in the left image): no
+// estimate there can be right, and the check is what removes them, while it
+// keeps the estimates where both views see the surface.
+// ---------------------------------------------------------------------------
+
+namespace {
+
+constexpr int kOccW = 320, kOccH = 160;
+constexpr int kStripX0 = 140, kStripX1 = 230;  // left-image columns of the strip
+constexpr double kBackground = 4.0, kForeground = 20.0;
+
+StereoPair occludingStripPair() {
+  const Texture background(3), foreground(4);
+  std::vector<double> xs(kOccW), xs_bg(kOccW), xs_fg(kOccW);
+  for (int x = 0; x < kOccW; ++x) {
+    xs[static_cast<size_t>(x)] = x;
+    xs_bg[static_cast<size_t>(x)] = x + kBackground;
+    xs_fg[static_cast<size_t>(x)] = x + kForeground;
+  }
+  const cv::Mat bg_left = background.render(xs, kOccH), fg_left = foreground.render(xs, kOccH);
+  const cv::Mat bg_right = background.render(xs_bg, kOccH), fg_right = foreground.render(xs_fg, kOccH);
+  StereoPair p;
+  p.left = bg_left.clone();
+  p.right = bg_right.clone();
+  p.gt = cv::Mat(kOccH, kOccW, CV_32FC1, cv::Scalar(static_cast<float>(kBackground)));
+  fg_left.colRange(kStripX0, kStripX1).copyTo(p.left.colRange(kStripX0, kStripX1));
+  p.gt.colRange(kStripX0, kStripX1).setTo(static_cast<float>(kForeground));
+  // Right column xr shows the strip where xr + 20 falls on it.
+  const int r0 = kStripX0 - static_cast<int>(kForeground), r1 = kStripX1 - static_cast<int>(kForeground);
+  fg_right.colRange(r0, r1).copyTo(p.right.colRange(r0, r1));
+  return p;
+}
+
+}  // namespace
+
+TEST(MatcherLeftRightCheck, DropsEstimatesWhereTheRightViewIsOccludedAndKeepsTheRest) {
+  const StereoPair pair = occludingStripPair();
+  const int margin = 24;  // rows and columns near the image edge left out
+  const int occluded_x0 = kStripX0 - static_cast<int>(kForeground - kBackground);
+  const cv::Rect occluded(occluded_x0, margin, kStripX0 - occluded_x0, kOccH - 2 * margin);
+  // Both views see these: background and strip, a patch away from the edges.
+  const cv::Rect seen_background(margin, margin, occluded_x0 - 16 - margin, kOccH - 2 * margin);
+  const cv::Rect seen_strip(kStripX0 + 16, margin, kStripX1 - kStripX0 - 32, kOccH - 2 * margin);
+  for (const char* preset : {"fast", "balanced", "accurate"}) {
+    SCOPED_TRACE(preset);
+    MatcherParams checked = MatcherParams::preset(preset);
+    ASSERT_GT(checked.lr_check_tolerance, 0.f);
+    MatcherParams unchecked = checked;
+    unchecked.lr_check_tolerance = 0.f;
+    const MatchResult with = run(checked, pair.left, pair.right);
+    const MatchResult without = run(unchecked, pair.left, pair.right);
+    expectValidResult(with, pair.left.size(), checked.compute_variance);
+    const double occluded_with = density(with.disparity(occluded));
+    const double occluded_without = density(without.disparity(occluded));
+    const ErrorStats background_with = errorStats(with.disparity, pair.gt, seen_background);
+    const ErrorStats strip_with = errorStats(with.disparity, pair.gt, seen_strip);
+    const double background_without = density(without.disparity(seen_background));
+    const double strip_without = density(without.disparity(seen_strip));
+    std::printf("[measured] %s: occluded band density %.3f checked / %.3f unchecked; seen "
+                "background %.3f / %.3f, strip %.3f / %.3f; median |err| %.3f / %.3f px\n",
+                preset, occluded_with, occluded_without, background_with.density(),
+                background_without, strip_with.density(), strip_without, background_with.median,
+                strip_with.median);
+    // Most of the occluded band loses its estimates; where both views see
+    // the surface, the check keeps almost everything.
+    EXPECT_LT(occluded_with, 0.5 * occluded_without);
+    EXPECT_GT(background_with.density(), 0.95 * background_without);
+    EXPECT_GT(strip_with.density(), 0.95 * strip_without);
+    EXPECT_LT(background_with.median, 0.1);
+    EXPECT_LT(strip_with.median, 0.1);
+  }
+}
+
 // ---------------------------------------------------------------------------
 // 8. Invalid input.
 // ---------------------------------------------------------------------------
