@@ -285,9 +285,16 @@ class TimedFrames {
     }
   }
   /// Median per-frame time (ms) of each method.
-  std::vector<double> medians() const {
+  std::vector<double> medians() const { return medians(0, 1); }
+  /// The same over share `part` of `parts` equal, consecutive shares of the
+  /// frames timed so far (in the order they were timed).
+  std::vector<double> medians(size_t part, size_t parts) const {
     std::vector<double> out;
-    for (const auto& t : times_) out.push_back(median(t));
+    for (const auto& t : times_) {
+      const auto first = t.begin() + static_cast<std::ptrdiff_t>(part * t.size() / parts);
+      const auto last = t.begin() + static_cast<std::ptrdiff_t>((part + 1) * t.size() / parts);
+      out.push_back(median(std::vector<double>(first, last)));
+    }
     return out;
   }
 
@@ -309,9 +316,16 @@ std::vector<double> medianTimes(const std::vector<Method>& methods, const Pairs&
   return timed.medians();
 }
 
+/// The scaling rounds are also split into this many consecutive shares, each
+/// timing every size: the exponent of each share shows how far the run's own
+/// noise moves it.
+constexpr size_t kScalingShares = 5;
+
 struct ScalingTimes {
   std::vector<std::vector<double>> ms;  ///< per size, per method: median per-frame time
   std::vector<int> rounds;              ///< per size: timed passes over its frames
+  /// per share of the rounds, per size, per method: median per-frame time
+  std::vector<std::vector<std::vector<double>>> share_ms;
 };
 
 /// medianTimes for every scaling size at once: each round times every size
@@ -334,9 +348,13 @@ ScalingTimes scalingMedianTimes(const std::vector<std::vector<Method>>& methods,
     }
   }
   ScalingTimes out;
+  out.share_ms.resize(kScalingShares);
   for (size_t i = 0; i < sizes.size(); ++i) {
     out.ms.push_back(sizes[i].medians());
     out.rounds.push_back(rounds * repeats[i]);
+    for (size_t k = 0; k < kScalingShares; ++k) {
+      out.share_ms[k].push_back(sizes[i].medians(k, kScalingShares));
+    }
   }
   return out;
 }
@@ -412,11 +430,24 @@ int runTable(int rounds, bool sequences, bool scaling, const bdis::MatcherParams
       }
       // Time ~ pixels^e: e = 1 is linear; above 1 the time grows faster than the pixel count.
       const double e_bdis = slope(log_pixels, log_ms[0]), e_dis = slope(log_pixels, log_ms[1]);
-      for (const auto& [name, e] :
-           {std::pair<std::string, double>{balanced_name, e_bdis}, {"DIS fast", e_dis}}) {
-        std::printf("| scaling exponent e, time ~ pixels^e (least squares over the sizes above%s) | %s | "
-                    "320x240 .. 1920x1080 | | e = %.3f | | %.2f |\n",
-                    evicted ? ", caches emptied" : "", name.c_str(), e, e / e_dis);
+      // The same fit per share of the rounds: the spread the run's noise gives.
+      double share_min[2] = {1e9, 1e9}, share_max[2] = {-1e9, -1e9};
+      for (const auto& share : t.share_ms) {
+        for (size_t m = 0; m < 2; ++m) {
+          std::vector<double> log_share;
+          for (const auto& per_size : share) log_share.push_back(std::log(per_size[m]));
+          const double e = slope(log_pixels, log_share);
+          share_min[m] = std::min(share_min[m], e);
+          share_max[m] = std::max(share_max[m], e);
+        }
+      }
+      for (size_t m = 0; m < 2; ++m) {
+        const double e = m == 0 ? e_bdis : e_dis;
+        std::printf("| scaling exponent e, time ~ pixels^e (least squares over the sizes above%s; "
+                    "in brackets e of each fifth of the rounds) | %s | 320x240 .. 1920x1080 | | "
+                    "e = %.3f (%.3f-%.3f) | | %.2f |\n",
+                    evicted ? ", caches emptied" : "", m == 0 ? balanced_name.c_str() : "DIS fast",
+                    e, share_min[m], share_max[m], e / e_dis);
       }
       std::fflush(stdout);
     }
