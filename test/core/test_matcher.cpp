@@ -863,11 +863,10 @@ TEST(MatcherOutputs, SmallSigmaSKeepsVarianceFiniteWhereEstimated) {
   }
 }
 
-// The result's finest level streams into the output a few rows at a time
-// (through a ring of level rows): every output row must be written, at every
-// finest level and for heights that leave a partial ring or band at the
-// bottom. A result pre-filled with values the matcher never writes shows a
-// missed row, and a fresh result must agree with it bit for bit.
+// Every output row is written, whichever level is the finest (upsampling by
+// 1, 2, 4 or 8) and for heights that leave a partial fusion band and an odd
+// last row. A result pre-filled with values the matcher never writes would
+// show a missed row, and a fresh result must agree with it bit for bit.
 TEST(MatcherOutputs, EveryOutputRowIsWrittenAtEachFinestLevel) {
   const cv::Size sizes[] = {{96, 481}, {161, 263}, {200, 64}};
   for (int finest = 0; finest <= 3; ++finest) {
