@@ -147,11 +147,22 @@ struct SearchPass {
   /// when they are set, not per frame.
   void configure(const MatcherParams& p);
   void allocate(cv::Size size, int levels);
-  /// Matches levels coarsest..finest of `pyramid` (built by the caller);
-  /// leaves the finest level's floored result in level_disparity /
-  /// level_confidence / level_variance.
-  void run(int levels);
-  void matchLevel(int s, bool finest);
+  /// Matches the levels above the finest of `pyramid` (built by the caller),
+  /// coarsest first; each only initialises the next. The finest level is the
+  /// caller's, through beginLevel, searchBand and fuseLevel, so that the two
+  /// passes can search theirs in step (Matcher::Impl::matchFinestLevel).
+  void matchLevelsAboveFinest(int levels);
+  /// The patch grid of level s; returns its number of patch rows.
+  int beginLevel(int s, bool finest);
+  /// Patch rows per search band: search_band_rows on the finest level, where
+  /// the level (about 7 MB at 1920x1080) no longer stays in cache between
+  /// the forward and the backward pass; a coarser level is searched whole.
+  int bandRows(bool finest) const {
+    return finest && params.search_band_rows > 0 ? params.search_band_rows
+                                                 : static_cast<int>(ys.size());
+  }
+  /// Forward and backward pass over patch rows [top, bottom) of level s.
+  void searchBand(int s, int top, int bottom);
   /// DIS's two passes over patch rows [top, bottom) of the level's grid (xs, ys).
   void forwardPass(const PyramidLevel& L, const cv::Mat1f& coarse, int top, int bottom);
   void backwardPass(const PyramidLevel& L, int top, int bottom);
@@ -264,6 +275,9 @@ struct Matcher::Impl {
   SearchPass left_pass;   ///< left image as reference: the result
   SearchPass right_pass;  ///< mirrored pair, right image as reference: the check
 
+  /// Searches and fuses the finest level of the left pass and, with the
+  /// check, of the right pass: band by band, in step down the level.
+  void matchFinestLevel(int finest, bool check);
   /// Removes left estimates that the right-reference pass does not confirm.
   void leftRightCheck(float tolerance);
 };
@@ -354,8 +368,9 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   m.left_pass.params = P;
   m.left_pass.params.finest_level = finest;
   m.left_pass.pyramid.build(left, right, levels, finest);
-  m.left_pass.run(levels);
-  if (P.lr_check_tolerance > 0.f) {
+  const bool check = P.lr_check_tolerance > 0.f;
+  m.left_pass.matchLevelsAboveFinest(levels);
+  if (check) {
     m.right_pass.params = m.left_pass.params;
     m.right_pass.params.compute_variance = false;
     m.right_pass.params.confidence_floor = 0.f;  // any fused estimate may confirm
@@ -363,13 +378,13 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
     m.right_pass.params.overlap = P.lr_check_overlap;
     // Mirroring turns "right as reference" into the same left-reference search.
     // Its finest level is mirrored a search band at a time (see buildMirrored).
-    const int check_finest = m.right_pass.params.finest_level;
     m.right_pass.pyramid.buildMirrored(
-        m.left_pass.pyramid, levels, check_finest,
-        searchBandLevelRows(m.right_pass.params, m.left_pass.pyramid.level(check_finest).height));
-    m.right_pass.run(levels);
-    m.leftRightCheck(P.lr_check_tolerance / static_cast<float>(1 << finest));
+        m.left_pass.pyramid, levels, finest,
+        searchBandLevelRows(m.right_pass.params, m.left_pass.pyramid.level(finest).height));
+    m.right_pass.matchLevelsAboveFinest(levels);
   }
+  m.matchFinestLevel(finest, check);
+  if (check) m.leftRightCheck(P.lr_check_tolerance / static_cast<float>(1 << finest));
   m.left_pass.upsampleToFull(finest, result);
 }
 
@@ -396,6 +411,38 @@ void leftRightCheckRow(int w, const float* __restrict mirrored, float tolerance,
 
 }  // namespace
 
+void Matcher::Impl::matchFinestLevel(int finest, bool check) {
+  SearchPass& left = left_pass;
+  SearchPass& right = right_pass;
+  const int p = params.patch_size;
+  const int left_rows = left.beginLevel(finest, true);
+  const int right_rows = check ? right.beginLevel(finest, true) : 0;
+  const int left_band = left.bandRows(true), right_band = check ? right.bandRows(true) : 1;
+  // The right pass mirrors the left pass's level rows a band at a time: its
+  // next band waits until the left pass has searched every row that band
+  // reads, and no longer, so that it mirrors rows still in cache instead of
+  // reading the level back from memory once the left pass is done with it.
+  // The order changes no result: the right pass only reads the left pass's
+  // pyramid, which neither pass writes.
+  int left_top = 0, right_top = 0;
+  while (left_top < left_rows || right_top < right_rows) {
+    const int left_done = left_top > 0 ? left.ys[static_cast<size_t>(left_top - 1)] + p : 0;
+    const int right_bottom = std::min(right_rows, right_top + right_band);
+    const bool right_waits =
+        right_top < right_rows && left_done < right.ys[static_cast<size_t>(right_bottom - 1)] + p;
+    if (left_top < left_rows && (right_top >= right_rows || right_waits)) {
+      const int bottom = std::min(left_rows, left_top + left_band);
+      left.searchBand(finest, left_top, bottom);
+      left_top = bottom;
+    } else {
+      right.searchBand(finest, right_top, right_bottom);
+      right_top = right_bottom;
+    }
+  }
+  left.fuseLevel(finest, true);
+  if (check) right.fuseLevel(finest, true);
+}
+
 void Matcher::Impl::leftRightCheck(float tolerance) {
   const int w = left_pass.pyramid.level(left_pass.params.finest_level).width;
   const int h = left_pass.pyramid.level(left_pass.params.finest_level).height;
@@ -405,16 +452,19 @@ void Matcher::Impl::leftRightCheck(float tolerance) {
   }
 }
 
-void SearchPass::run(int levels) {
+void SearchPass::matchLevelsAboveFinest(int levels) {
   const int finest = params.finest_level;
   allocate(pyramid.size(), levels);
 
   // Start from zero disparity above the coarsest level.
   fill(init_disparity[levels], 0.f);
-  for (int s = levels - 1; s >= finest; --s) matchLevel(s, s == finest);
+  for (int s = levels - 1; s > finest; --s) {
+    searchBand(s, 0, beginLevel(s, false));
+    fuseLevel(s, false);
+  }
 }
 
-void SearchPass::matchLevel(int s, bool finest) {
+int SearchPass::beginLevel(int s, bool finest) {
   const PyramidLevel& L = pyramid.level(s);
   const int p = params.patch_size;
   // Coarser levels only initialise the next one: they get by with fewer patches.
@@ -431,22 +481,19 @@ void SearchPass::matchLevel(int s, bool finest) {
     patches.resize(num_patches);
     loaded_patches.resize(num_patches);
   }
+  return ny;
+}
 
-  // The finest level is searched in bands of search_band_rows patch rows,
-  // the forward and then the backward pass over each, so that the backward
-  // pass finds the band's level rows still in cache (the searched level of a
-  // 1920x1080 frame is about 7 MB). The backward pass takes no lower neighbour
-  // across a band's bottom edge; the next band's forward pass starts from the
-  // final results of its upper neighbours. The check's pass mirrors each
-  // band's rows just before it searches them (StereoPyramid::loadRows).
-  const int band_rows = finest && params.search_band_rows > 0 ? params.search_band_rows : ny;
-  for (int top = 0; top < ny; top += band_rows) {
-    const int bottom = std::min(ny, top + band_rows);
-    pyramid.loadRows(s, ys[static_cast<size_t>(top)], ys[static_cast<size_t>(bottom - 1)] + p);
-    forwardPass(L, init_disparity[s + 1], top, bottom);
-    backwardPass(L, top, bottom);
-  }
-  fuseLevel(s, finest);
+void SearchPass::searchBand(int s, int top, int bottom) {
+  const PyramidLevel& L = pyramid.level(s);
+  // The backward pass takes no lower neighbour across a band's bottom edge;
+  // the next band's forward pass starts from the final results of its upper
+  // neighbours. The check's pass mirrors each band's rows just before it
+  // searches them (StereoPyramid::loadRows).
+  const int p = params.patch_size;
+  pyramid.loadRows(s, ys[static_cast<size_t>(top)], ys[static_cast<size_t>(bottom - 1)] + p);
+  forwardPass(L, init_disparity[s + 1], top, bottom);
+  backwardPass(L, top, bottom);
 }
 
 void SearchPass::forwardPass(const PyramidLevel& L, const cv::Mat1f& coarse, int top, int bottom) {
