@@ -154,12 +154,12 @@ struct SearchPass {
   void matchLevelsAboveFinest(int levels);
   /// The patch grid of level s; returns its number of patch rows.
   int beginLevel(int s, bool finest);
-  /// Patch rows per search band: search_band_rows on the finest level, where
-  /// the level (about 7 MB at 1920x1080) no longer stays in cache between
-  /// the forward and the backward pass; a coarser level is searched whole.
-  int bandRows(bool finest) const {
-    return finest && params.search_band_rows > 0 ? params.search_band_rows
-                                                 : static_cast<int>(ys.size());
+  /// Patch rows per search band of the finest level (after its beginLevel):
+  /// search_band_rows, as the level (about 7 MB at 1920x1080) no longer stays
+  /// in cache between the forward and the backward pass; 0 is the whole
+  /// level. A coarser level is searched whole.
+  int finestBandRows() const {
+    return params.search_band_rows > 0 ? params.search_band_rows : static_cast<int>(ys.size());
   }
   /// Forward and backward pass over patch rows [top, bottom) of level s.
   void searchBand(int s, int top, int bottom);
@@ -417,7 +417,8 @@ void Matcher::Impl::matchFinestLevel(int finest, bool check) {
   const int p = params.patch_size;
   const int left_rows = left.beginLevel(finest, true);
   const int right_rows = check ? right.beginLevel(finest, true) : 0;
-  const int left_band = left.bandRows(true), right_band = check ? right.bandRows(true) : 1;
+  const int left_band = left.finestBandRows();
+  const int right_band = check ? right.finestBandRows() : 0;
   // The right pass mirrors the left pass's level rows a band at a time: its
   // next band waits until the left pass has searched every row that band
   // reads, and no longer, so that it mirrors rows still in cache instead of
@@ -425,8 +426,8 @@ void Matcher::Impl::matchFinestLevel(int finest, bool check) {
   // The order changes no result: the right pass only reads the left pass's
   // pyramid, which neither pass writes.
   int left_top = 0, right_top = 0;
+  int left_done = 0;  // level rows the left pass has searched
   while (left_top < left_rows || right_top < right_rows) {
-    const int left_done = left_top > 0 ? left.ys[static_cast<size_t>(left_top - 1)] + p : 0;
     const int right_bottom = std::min(right_rows, right_top + right_band);
     const bool right_waits =
         right_top < right_rows && left_done < right.ys[static_cast<size_t>(right_bottom - 1)] + p;
@@ -434,6 +435,7 @@ void Matcher::Impl::matchFinestLevel(int finest, bool check) {
       const int bottom = std::min(left_rows, left_top + left_band);
       left.searchBand(finest, left_top, bottom);
       left_top = bottom;
+      left_done = left.ys[static_cast<size_t>(bottom - 1)] + p;
     } else {
       right.searchBand(finest, right_top, right_bottom);
       right_top = right_bottom;
