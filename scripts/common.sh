@@ -6,6 +6,8 @@ set -euo pipefail
 
 REPO_DIR="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 WS_DIR="${BDIS_WS_DIR:-$REPO_DIR/_ws}"
+# The shared stereo sequences, for the tests, the benchmarks and the demo's --data.
+export BDIS_DATA_DIR="${BDIS_DATA_DIR:-$REPO_DIR/../shared/data}"
 # Debian's python has catkin_pkg; a pyenv or venv python on PATH does not.
 export PATH="/usr/bin:$PATH"
 PYTHON_EXE=/usr/bin/python3

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The one test command: installs what is missing, builds, runs every test and
 # prints "N passed, N failed". Exits non-zero on any failure.
-# Data: ../shared/data or $BDIS_DATA_DIR; under CI=true a test that needs it and
-# cannot find it fails instead of skipping.
+# Data: $BDIS_DATA_DIR, by default ../shared/data beside the checkout; under
+# CI=true a test that needs it and cannot find it fails instead of skipping.
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
 install_dependencies

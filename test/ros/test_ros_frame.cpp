@@ -8,7 +8,7 @@
 #include <opencv2/core.hpp>
 #include <sensor_msgs/image_encodings.h>
 
-#include "../../src/ros/ros_frame.hpp"
+#include "../../src/ros_frame.hpp"
 #include "bdis_stereo/matcher.hpp"
 
 using bdis_stereo::checkImage;

@@ -1,0 +1,72 @@
+// Scoring and data I/O for sequences in the layout of the project's data
+// folders (left/, right/, gt_disparity/, camera.yaml). Used by the offline
+// evaluator, the accuracy tests and the benchmarks.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace bdis {
+
+/// Scores of one method over a set of frames, as the data README defines them:
+/// over pixels with ground truth > 0 and a non-black left image.
+struct DisparityScore {
+  double scorable = 0;      ///< pixels with ground truth and a non-black left image
+  double estimated = 0;     ///< of those, pixels with an estimate
+  double bad2 = 0;          ///< of the estimated, pixels off by more than 2 px
+  double abs_error_sum = 0;
+  std::vector<float> abs_errors;  ///< per estimated pixel, for the median
+
+  void add(const DisparityScore& other);
+  double density() const;         ///< estimated / scorable
+  double meanError() const;       ///< px
+  double medianError() const;     ///< px (sorts a copy)
+  double bad2Rate() const;        ///< bad2 / estimated
+  double missOrBad2Rate() const;  ///< (scorable - estimated + bad2) / scorable
+};
+
+/// Scores `disparity` (CV_32FC1, negative = no estimate) against `gt`
+/// (CV_32FC1, 0 = unknown), masking pixels that are black in `left`.
+DisparityScore scoreDisparity(const cv::Mat& disparity, const cv::Mat& gt, const cv::Mat& left);
+
+/// KITTI convention: 16-bit PNG, value = round(d * 256), 0 = no estimate.
+/// Reads into CV_32FC1 with kNoDisparity (-1) for 0. Throws std::runtime_error.
+cv::Mat readDisparityPng(const std::string& path);
+/// Writes CV_32FC1 disparity (negative = none) as 16-bit PNG; values are
+/// clamped to the 16-bit range. Throws std::runtime_error on failure.
+void writeDisparityPng(const std::string& path, const cv::Mat& disparity);
+
+/// Reads an image as stored (IMREAD_UNCHANGED); 8-bit BGRA becomes BGR.
+/// Anything else (16-bit, float) is returned as is, so the matcher rejects it
+/// with its own message. Throws std::runtime_error naming the file when it is
+/// missing, a directory or not a readable image.
+cv::Mat readStereoImage(const std::string& path);
+
+/// Names of the regular files present in both directories, sorted. Throws
+/// std::runtime_error when either is not a directory.
+std::vector<std::string> pairedFileNames(const std::string& dir_a, const std::string& dir_b);
+
+/// cv::imwrite that throws std::runtime_error naming the path on failure.
+void writeImage(const std::string& path, const cv::Mat& image);
+
+/// One stereo sequence on disk.
+struct StereoSequence {
+  std::string root;
+  std::vector<std::string> names;  ///< file names present in both left/ and right/, sorted
+  bool has_ground_truth = false;   ///< gt_disparity/ exists
+
+  /// Lists the sequence; throws std::runtime_error if left/ or right/ is missing or empty.
+  static StereoSequence open(const std::string& root);
+  cv::Mat left(size_t i) const;    ///< readStereoImage of left/<name>
+  cv::Mat right(size_t i) const;
+  cv::Mat groundTruth(size_t i) const;  ///< CV_32FC1 px, 0 = unknown (not -1)
+};
+
+/// Root of the shared data folder, found at run time: $BDIS_DATA_DIR if set,
+/// else ../shared/data from the working directory if it exists; empty
+/// string when neither is there.
+std::string findDataDir();
+
+}  // namespace bdis

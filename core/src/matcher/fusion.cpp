@@ -1,0 +1,226 @@
+#include "fusion.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "bdis_stereo/matcher.hpp"  // kNoDisparity
+
+namespace bdis {
+namespace detail {
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// Per-row loops: their rows are __restrict parameters, without which GCC
+// gives up vectorising for the possible aliases between outputs and inputs.
+
+/// Fused disparity where any patch survived; 0 elsewhere (the caller fills those).
+BDIS_ROW_LOOP
+void fusedRow(int n, const float* __restrict num, const float* __restrict den, float* __restrict out) {
+  for (int x = 0; x < n; ++x) {
+    const float d = num[x] / std::max(den[x], std::numeric_limits<float>::min());
+    const float value = den[x] > 0.f ? d : 0.f;
+    out[x] = value;
+  }
+}
+
+/// The finest level's output row: fused disparity and confidence where some
+/// patch survived and the confidence reaches the floor.
+BDIS_ROW_LOOP
+void floorRow(int n, const float* __restrict fused, const float* __restrict den,
+              const float* __restrict conf_sum, const float* __restrict cover_x, float cover_y,
+              float confidence_floor, float* __restrict disparity, float* __restrict confidence) {
+  for (int x = 0; x < n; ++x) {
+    const float conf = conf_sum[x] / (cover_y * cover_x[x]), f = fused[x];
+    const bool keep = (den[x] > 0.f) & (conf >= confidence_floor);  // & : no branch
+    const float d = keep ? f : kNoDisparity, c = keep ? conf : 0.f;
+    disparity[x] = d;
+    confidence[x] = c;
+  }
+}
+
+/// Patches covering each pixel along one axis of a level.
+void coverAlongAxis(const std::vector<int>& origins, int p, std::vector<float>& cover, int extent) {
+  std::fill(cover.begin(), cover.begin() + extent, 0.f);
+  for (int o : origins) {
+    for (int i = o; i < o + p; ++i) cover[static_cast<size_t>(i)] += 1.f;
+  }
+}
+
+void clearRows(cv::Mat1f& m, int from, int width) {
+  for (int y = from; y < m.rows; ++y) std::fill(m[y], m[y] + width, 0.f);
+}
+
+/// Moves the `kept` rows from band row `first` up to row 0 and clears the rest.
+void carryRows(cv::Mat1f& m, int first, int kept, int width) {
+  for (int y = 0; y < kept; ++y) std::copy(m[first + y], m[first + y] + width, m[y]);
+  clearRows(m, kept, width);
+}
+
+}  // namespace
+
+/// Fusion without a variance: every step a no-op.
+struct Fusion::NoVariance {
+  void clear(int) {}
+  void carry(int, int) {}
+  void addPatch(const float*, int, const PatchEstimate&, int, int) {}
+  void finishRow(int, const float*, int) const {}
+};
+
+/// The squared-weight average of the covering patches' variances: sums of
+/// w^2 v and w^2 per pixel of the band, w = posterior x spatial weight.
+class Fusion::VarianceSums {
+ public:
+  VarianceSums(cv::Mat1f& num, cv::Mat1f& den, int width, float max_variance, cv::Mat1f& out)
+      : num_(num), den_(den), width_(width), max_variance_(max_variance), out_(out) {}
+  void clear(int from) {
+    clearRows(num_, from, width_);
+    clearRows(den_, from, width_);
+  }
+  void carry(int first, int kept) {
+    carryRows(num_, first, kept, width_);
+    carryRows(den_, first, kept, width_);
+  }
+  void addPatch(const float* spatial, int p, const PatchEstimate& e, int by, int x0) {
+    for (int y = 0; y < p; ++y) {
+      const float* g = spatial + y * p;
+      float* vn = num_[by + y] + x0;
+      float* vd = den_[by + y] + x0;
+      for (int x = 0; x < p; ++x) {
+        const float wt = e.posterior * g[x];
+        vn[x] += wt * wt * e.variance;
+        vd[x] += wt * wt;
+      }
+    }
+  }
+  /// Output row y from band row `by`: NaN where `disparity` has no estimate,
+  /// the maximal variance where the squared weights underflowed (a tiny sigma_s).
+  void finishRow(int by, const float* disparity, int y) const {
+    const float* vn = num_[by];
+    const float* vd = den_[by];
+    float* out = out_[y];
+    for (int x = 0; x < width_; ++x) {
+      out[x] = disparity[x] < 0.f ? kNaN : vd[x] > 0.f ? vn[x] / vd[x] : max_variance_;
+    }
+  }
+
+ private:
+  cv::Mat1f& num_;
+  cv::Mat1f& den_;
+  int width_;
+  float max_variance_;
+  cv::Mat1f& out_;
+};
+
+void Fusion::configure(const KernelSet& kernels, int patch_size, float sigma_s, float confidence_floor,
+                       float max_variance) {
+  kernels_ = &kernels;
+  p_ = patch_size;
+  confidence_floor_ = confidence_floor;
+  max_variance_ = max_variance;
+  const int n = patch_size;
+  const float c = 0.5f * static_cast<float>(n - 1);
+  const float inv2s2 = 1.f / (2.f * sigma_s * sigma_s);
+  spatial_.resize(static_cast<size_t>(n) * static_cast<size_t>(n));
+  for (int y = 0; y < n; ++y) {
+    for (int x = 0; x < n; ++x) {
+      const float dx = static_cast<float>(x) - c, dy = static_cast<float>(y) - c;
+      spatial_[static_cast<size_t>(y * n + x)] = std::exp(-(dx * dx + dy * dy) * inv2s2);
+    }
+  }
+}
+
+void Fusion::allocate(int band_rows, int max_width, int max_height, bool with_variance) {
+  for (cv::Mat1f* m : {&num_, &den_, &conf_}) m->create(band_rows, max_width);
+  if (with_variance) {
+    var_num_.create(band_rows, max_width);
+    var_den_.create(band_rows, max_width);
+  }
+  cover_x_.resize(static_cast<size_t>(max_width));
+  cover_y_.resize(static_cast<size_t>(max_height));
+  fused_row_.resize(static_cast<size_t>(max_width));
+}
+
+template <class Variance, class FinishRows>
+void Fusion::accumulate(const PatchGrid& grid, const std::vector<PatchEstimate>& estimates, int width,
+                        int height, Variance& variance, FinishRows&& finish) {
+  const int p = p_;
+  // The band holds level rows [band_top, band_top + band_rows). Patch rows
+  // come top to bottom, so when the next one does not fit, the rows above it
+  // are final: they are finished, the rest moves up and the band follows.
+  // Every pixel sums its patches in the same order as over a whole-level buffer.
+  const int band_rows = num_.rows;
+  int band_top = 0;
+  for (cv::Mat1f* m : {&num_, &den_, &conf_}) clearRows(*m, 0, width);
+  variance.clear(0);
+  // The grid is regular: the patches covering a pixel are those covering its
+  // column times those covering its row.
+  coverAlongAxis(grid.xs, p, cover_x_, width);
+  coverAlongAxis(grid.ys, p, cover_y_, height);
+
+  const size_t stride = num_.step1();
+  size_t k = 0;
+  for (int y0 : grid.ys) {
+    if (y0 + p > band_top + band_rows) {
+      finish(band_top, y0);
+      const int kept = band_top + band_rows - y0;  // < p: rows the next patches add to
+      for (cv::Mat1f* m : {&num_, &den_, &conf_}) carryRows(*m, y0 - band_top, kept, width);
+      variance.carry(y0 - band_top, kept);
+      band_top = y0;
+    }
+    const int by = y0 - band_top;
+    for (int x0 : grid.xs) {
+      const PatchEstimate& e = estimates[k++];
+      if (e.posterior <= 0.f) continue;
+      kernels_->accumulate_patch(p, spatial_.data(), e.posterior, e.disparity, e.evidence, num_[by] + x0,
+                                 den_[by] + x0, conf_[by] + x0, stride);
+      variance.addPatch(spatial_.data(), p, e, by, x0);
+    }
+  }
+  finish(band_top, height);
+}
+
+void Fusion::fusedRowOrCoarse(int width, int by, int y, const cv::Mat1f& coarse, float* out) const {
+  const float* den = den_[by];
+  const float* coarse_row = coarse[std::min(y / 2, coarse.rows - 1)];
+  fusedRow(width, num_[by], den, out);
+  for (int x = 0; x < width; ++x) {
+    if (!(den[x] > 0.f)) out[x] = 2.f * coarse_row[std::min(x / 2, coarse.cols - 1)];  // rare
+  }
+}
+
+void Fusion::fuseInitialisation(const PatchGrid& grid, const std::vector<PatchEstimate>& estimates,
+                                const cv::Mat1f& coarse, cv::Mat1f& init) {
+  NoVariance none;
+  const int width = init.cols;
+  accumulate(grid, estimates, width, init.rows, none, [&](int band_top, int end) {
+    for (int y = band_top; y < end; ++y) fusedRowOrCoarse(width, y - band_top, y, coarse, init[y]);
+  });
+}
+
+void Fusion::fuseFinest(const PatchGrid& grid, const std::vector<PatchEstimate>& estimates, int width,
+                        int height, const cv::Mat1f& coarse, bool keep_confidence, bool with_variance,
+                        LevelMaps& out) {
+  auto finish = [&](int band_top, int end, auto& variance) {
+    for (int y = band_top; y < end; ++y) {
+      const int by = y - band_top;
+      fusedRowOrCoarse(width, by, y, coarse, fused_row_.data());
+      float* disparity = out.disparity[y];
+      floorRow(width, fused_row_.data(), den_[by], conf_[by], cover_x_.data(), cover_y_[static_cast<size_t>(y)],
+               confidence_floor_, disparity, out.confidence[keep_confidence ? y : 0]);
+      variance.finishRow(by, disparity, y);
+    }
+  };
+  if (with_variance) {
+    VarianceSums variance(var_num_, var_den_, width, max_variance_, out.variance);
+    accumulate(grid, estimates, width, height, variance,
+               [&](int band_top, int end) { finish(band_top, end, variance); });
+  } else {
+    NoVariance none;
+    accumulate(grid, estimates, width, height, none, [&](int band_top, int end) { finish(band_top, end, none); });
+  }
+}
+
+}  // namespace detail
+}  // namespace bdis

@@ -1,0 +1,164 @@
+#include "inverse_search.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace bdis {
+namespace detail {
+
+void PatchSearch::configure(const MatcherParams& params) {
+  p_ = params.patch_size;
+  iterations_ = params.iterations;
+  propagation_ = params.propagation;
+  mean_normalization_ = params.mean_normalization;
+  min_valid_share_ = params.min_valid_share;
+  posterior_.half_width = params.window_half_width;
+  posterior_.step = params.window_step;
+  posterior_.min_valid_pixels = params.min_valid_share * static_cast<float>(p_ * p_);
+  posterior_.sigma_r_squared = params.sigma_r * params.sigma_r;
+  posterior_.contrast_share = params.contrast_share;
+  posterior_.variance = params.compute_variance;
+  cost_.configure(kernelsFor(p_, bestKernelIsa()), p_, params.mean_normalization,
+                  params.window_half_width, params.window_step);
+}
+
+void PatchSearch::beginLevel(const PyramidLevel& L, int stride) {
+  grid_.layout(L.width, L.height, p_, stride);
+  // Only grown: the finer level has more patches than the coarser one before
+  // it, and resizing down and up again would construct them anew every level.
+  // Every entry of the grid is written by the forward pass before it is read.
+  if (estimates_.size() < grid_.size()) {
+    estimates_.resize(grid_.size());
+    loaded_.resize(grid_.size());
+  }
+}
+
+void PatchSearch::searchBand(const PyramidLevel& L, const cv::Mat1f& coarse, int top, int bottom) {
+  forwardPass(L, coarse, top, bottom);
+  backwardPass(L, top, bottom);
+}
+
+void PatchSearch::forwardPass(const PyramidLevel& L, const cv::Mat1f& coarse, int top, int bottom) {
+  const int pp = p_ * p_;
+  const int nx = grid_.columns();
+  const float half = 0.5f * static_cast<float>(p_ - 1);
+  // Raster order: start from the coarser level's disparity at the patch
+  // centre, times 2, or from the left or upper neighbour's result when that
+  // fits this patch better (spatial propagation, as in DIS).
+  for (int iy = top; iy < bottom; ++iy) {
+    const int y0 = grid_.ys[static_cast<size_t>(iy)];
+    cost_.loadBand(L, y0);
+    for (int ix = 0; ix < nx; ++ix) {
+      const size_t k = static_cast<size_t>(iy * nx + ix);
+      const int x0 = grid_.xs[static_cast<size_t>(ix)];
+      const float cx = (static_cast<float>(x0) + half + 0.5f) * 0.5f - 0.5f;
+      const float cy = (static_cast<float>(y0) + half + 0.5f) * 0.5f - 0.5f;
+      // cx, cy > 0: adding 0.5 and truncating rounds them (lround is a libm call).
+      const int ccx = std::min(static_cast<int>(cx + 0.5f), coarse.cols - 1);
+      const int ccy = std::min(static_cast<int>(cy + 0.5f), coarse.rows - 1);
+      float u = 2.f * coarse(ccy, ccx);
+      estimates_[k] = PatchEstimate{u, 0.f, 0.f};
+      LoadedPatch& record = loaded_[k];
+      const int left_invalid = cost_.leftInvalid(x0);
+      // Mostly outside the rectified view: not searched.
+      record.loaded = !(static_cast<float>(pp - left_invalid) < min_valid_share_ * static_cast<float>(pp));
+      if (!record.loaded) continue;
+      cost_.loadPatch(L, x0, y0, left_invalid == 0);
+      record.constants = cost_.constants();
+      record.left_all_valid = cost_.leftAllValid();
+      if (propagation_) {
+        float candidates[2];
+        propagate(u, candidates, neighbourCandidates(k, ix > 0, -1, iy > 0, -nx, candidates));
+      }
+      estimates_[k].disparity = refinePatch(u);
+    }
+  }
+}
+
+void PatchSearch::backwardPass(const PyramidLevel& L, int top, int bottom) {
+  const int nx = grid_.columns();
+  float window[2 * kMaxWindowHalfWidth + 1];
+  // The right and lower neighbours get their say, then the patch's
+  // posterior is taken at its final disparity.
+  for (int iy = bottom - 1; iy >= top; --iy) {
+    const int y0 = grid_.ys[static_cast<size_t>(iy)];
+    cost_.loadBand(L, y0);
+    for (int ix = nx - 1; ix >= 0; --ix) {
+      const size_t k = static_cast<size_t>(iy * nx + ix);
+      const LoadedPatch& record = loaded_[k];
+      if (!record.loaded) continue;
+      cost_.setPatch(L, grid_.xs[static_cast<size_t>(ix)], y0, record.left_all_valid, record.constants);
+      float u = estimates_[k].disparity;
+      if (propagation_) {
+        float candidates[2];
+        const int m = neighbourCandidates(k, ix + 1 < nx, 1, iy + 1 < bottom, nx, candidates);
+        if (propagate(u, candidates, m)) u = refinePatch(u);
+      }
+      const float valid_at_optimum = cost_.windowCosts(u, window);
+      estimates_[k] = patchPosterior(u, window, valid_at_optimum,
+                                     [this] { return cost_.templateVariance(); }, posterior_);
+    }
+  }
+}
+
+bool PatchSearch::propagate(float& u, const float* candidates, int n) {
+  // A candidate this close to the current choice is not worth a cost: the
+  // refinement would end where it ends from there (the scores on the colon
+  // and generated sequences do not change).
+  constexpr float kMinCandidateDistance = 0.1f;
+  auto far = [](float a, float b) { return std::fabs(a - b) >= kMinCandidateDistance; };
+  // The costs the rule below may compare, in one batch: u's, and each
+  // candidate's that is far from u or from an earlier candidate (which may
+  // have replaced u by then).
+  float values[kMaxBatchSpans] = {u};
+  int slot[kMaxBatchSpans - 1] = {-1, -1};  // candidate i's index in values
+  int m = 1;
+  for (int i = 0; i < n; ++i) {
+    bool may_be_tried = far(candidates[i], u);
+    for (int j = 0; j < i; ++j) may_be_tried |= slot[j] >= 0 && far(candidates[i], candidates[j]);
+    if (may_be_tried) {
+      slot[i] = m;
+      values[m++] = candidates[i];
+    }
+  }
+  if (m == 1) return false;
+  float costs[kMaxBatchSpans];
+  cost_.costs(values, m, costs);
+  float best = costs[0];
+  bool moved = false;
+  for (int i = 0; i < n; ++i) {
+    if (!far(candidates[i], u)) continue;  // else slot[i] >= 0
+    const float c = costs[slot[i]];
+    if (!(c < best)) continue;
+    u = candidates[i];
+    best = c;
+    moved = true;
+  }
+  return moved;
+}
+
+float PatchSearch::refinePatch(float u_start) {
+  // Inverse-compositional Gauss-Newton along x, d >= 0.
+  const float max_u = static_cast<float>(cost_.levelWidth());
+  float u = u_start;
+  ResidualSums r;
+  for (int it = 0; it < iterations_; ++it) {
+    cost_.sums(u, r);
+    if (r.count <= 0.f) break;
+    float b = r.g_diff, H = r.g_sq;
+    if (mean_normalization_) {
+      b -= r.diff * r.g / r.count;
+      H -= r.g * r.g / r.count;
+    }
+    if (H <= 1e-6f) break;  // no texture: nothing to align on
+    const float step = b / H;
+    u = std::clamp(u + step, 0.f, max_u);
+    if (std::fabs(step) < 0.01f) break;  // converged: far below what a match resolves
+  }
+  // Outlier guard: wandered more than a patch from its start.
+  if (std::fabs(u - u_start) > static_cast<float>(p_)) u = u_start;
+  return u;
+}
+
+}  // namespace detail
+}  // namespace bdis

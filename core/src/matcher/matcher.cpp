@@ -1,0 +1,145 @@
+// BDIS as a pipeline of stages (docs/method.md): the pyramid, then per level
+// patch search -> posterior -> fusion from coarse to fine, then the
+// left-right check and the upsampling to the input resolution.
+#include "bdis_stereo/matcher.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "band_schedule.hpp"
+#include "left_right_check.hpp"
+#include "pyramid.hpp"
+#include "search_pass.hpp"
+#include "upsampling.hpp"
+
+namespace bdis {
+
+namespace {
+
+std::string describe(const cv::Mat& m) {
+  return std::to_string(m.cols) + "x" + std::to_string(m.rows) + " type " + cv::typeToString(m.type());
+}
+
+void validateInputs(const cv::Mat& left, const cv::Mat& right) {
+  for (const auto& [name, img] : {std::pair<const char*, const cv::Mat&>{"left", left},
+                                  std::pair<const char*, const cv::Mat&>{"right", right}}) {
+    if (img.empty()) throw std::invalid_argument(std::string(name) + " image is empty");
+    if (img.dims != 2) throw std::invalid_argument(std::string(name) + " image is not 2-D");
+    if (img.depth() != CV_8U || (img.channels() != 1 && img.channels() != 3)) {
+      throw std::invalid_argument(std::string(name) + " image is " + describe(img) +
+                                  ": expected 8-bit mono (CV_8UC1) or BGR (CV_8UC3)");
+    }
+    if (img.cols < kMinImageSide || img.rows < kMinImageSide) {
+      throw std::invalid_argument(std::string(name) + " image is " + describe(img) +
+                                  ": both sides must be at least " + std::to_string(kMinImageSide) + " px");
+    }
+  }
+  if (left.size() != right.size()) {
+    throw std::invalid_argument("left image is " + describe(left) + " but right is " + describe(right) +
+                                ": a rectified pair has equal sizes");
+  }
+  if (left.type() != right.type()) {
+    throw std::invalid_argument("left image is " + describe(left) + " but right is " + describe(right) +
+                                ": both must have the same type");
+  }
+}
+
+/// The left-right check's settings: the same search with the right image as
+/// reference, on a sparser grid (it only confirms or refutes), where any
+/// fused estimate may confirm.
+MatcherParams checkParams(const MatcherParams& P) {
+  MatcherParams c = P;
+  c.compute_variance = false;
+  c.confidence_floor = 0.f;
+  c.overlap = P.lr_check_overlap;
+  return c;
+}
+
+}  // namespace
+
+struct Matcher::Impl {
+  MatcherParams params;
+  detail::StereoPyramid pyramid;            ///< the pair: left image as reference
+  detail::MirroredPyramid mirrored;         ///< the mirrored pair: right image as reference
+  detail::SearchPass left;                  ///< the search whose result is published
+  detail::SearchPass check;                 ///< the left-right check's search
+  std::vector<detail::SearchBand> bands;    ///< the finest level's search order
+  detail::Upsampler upsampler;
+
+  /// The finest level of both searches, band by band in the order of
+  /// scheduleFinestBands; the check's rows are mirrored just before their band.
+  void searchFinestLevel(int finest, bool with_check);
+};
+
+Matcher::Matcher(const MatcherParams& params) : impl_(std::make_unique<Impl>()) { setParams(params); }
+Matcher::~Matcher() = default;
+Matcher::Matcher(Matcher&&) noexcept = default;
+Matcher& Matcher::operator=(Matcher&&) noexcept = default;
+
+void Matcher::setParams(const MatcherParams& params) {
+  params.validate();
+  impl_->params = params;
+  impl_->left.configure(params, /*keep_confidence=*/true);
+  impl_->check.configure(checkParams(params), /*keep_confidence=*/false);
+}
+
+const MatcherParams& Matcher::params() const { return impl_->params; }
+
+void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& result) {
+  validateInputs(left, right);
+  Impl& m = *impl_;
+  const MatcherParams& P = m.params;
+  // Levels that hold at least one patch; the finest level is clamped alike.
+  const int levels = detail::levelsThatFit(left.cols, left.rows, P.patch_size, P.coarsest_level + 1);
+  const int finest = std::min(P.finest_level, levels - 1);
+  const bool with_check = P.lr_check_tolerance > 0.f;
+
+  // 1. Pyramid: grey levels, gradients and validity of the pair.
+  m.pyramid.build(left, right, levels, finest);
+  // 2. Coarse to fine above the finest level; each level initialises the next.
+  m.left.matchLevelsAboveFinest(m.pyramid, left.size(), levels, finest);
+  if (with_check) {
+    const MatcherParams& C = m.check.params();
+    const int band_rows = detail::bandLevelRows(C.search_band_rows, detail::patchStride(C.patch_size, C.overlap),
+                                                C.patch_size, m.pyramid.level(finest).height);
+    m.mirrored.build(m.pyramid, levels, finest, band_rows);
+    m.check.matchLevelsAboveFinest(m.mirrored, left.size(), levels, finest);
+  }
+  // 3. The finest level, band by band, then fused.
+  m.searchFinestLevel(finest, with_check);
+  m.left.fuseFinestLevel();
+  if (with_check) m.check.fuseFinestLevel();
+  // 4. The left-right check, at the finest level's scale.
+  detail::LevelMaps& out = m.left.finest();
+  if (with_check) {
+    detail::leftRightCheck(m.check.finest().disparity, P.lr_check_tolerance / static_cast<float>(1 << finest),
+                           out.disparity, out.confidence);
+  }
+  // 5. Upsampling to the input resolution.
+  m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, result);
+  if (P.compute_variance) {
+    m.upsampler.upsampleVariance(out, finest, result);
+  } else {
+    result.variance.release();
+  }
+}
+
+void Matcher::Impl::searchFinestLevel(int finest, bool with_check) {
+  const detail::PyramidLevel& level = pyramid.level(finest);
+  left.beginFinestLevel(level, finest);
+  if (with_check) check.beginFinestLevel(mirrored.level(finest), finest);
+  detail::scheduleFinestBands(left.grid(), params.search_band_rows, with_check ? &check.grid() : nullptr,
+                              params.search_band_rows, bands);
+  for (const detail::SearchBand& band : bands) {
+    if (band.pass == detail::SearchBand::Pass::Left) {
+      left.searchFinestBand(level, band.top, band.bottom);
+    } else {
+      mirrored.loadFinestRows(level, band.first_row, band.end_row);
+      check.searchFinestBand(mirrored.level(finest), band.top, band.bottom);
+    }
+  }
+}
+
+}  // namespace bdis

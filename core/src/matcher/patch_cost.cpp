@@ -1,0 +1,184 @@
+#include "patch_cost.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace bdis {
+namespace detail {
+namespace {
+
+/// Adds each column's invalid pixels (valid is 0 or 1) of one mask row to `count`.
+BDIS_ROW_LOOP
+void countInvalidRow(int w, const uchar* __restrict valid, uchar* __restrict count) {
+  for (int x = 0; x < w; ++x) count[x] = static_cast<uchar>(count[x] + 1 - valid[x]);
+}
+
+/// The invalid pixels of rows y0 .. y0 + p - 1 of `valid` per column, as
+/// prefix sums along the row; false when there are none.
+bool bandPrefix(const uchar* valid, size_t stride, int w, int p, uchar* count, int* prefix) {
+  std::fill(count, count + w, uchar{0});
+  for (int y = 0; y < p; ++y) countInvalidRow(w, valid + static_cast<size_t>(y) * stride, count);
+  int sum = 0;
+  prefix[0] = 0;
+  for (int x = 0; x < w; ++x) {
+    sum += count[x];
+    prefix[x + 1] = sum;
+  }
+  return sum > 0;
+}
+
+size_t rowStride(const cv::Mat1f& m) { return m.step1(); }
+
+}  // namespace
+
+void PatchCost::configure(const KernelSet& kernels, int patch_size, bool mean_normalization,
+                          int window_half_width, float window_step) {
+  kernels_ = &kernels;
+  p_ = patch_size;
+  mean_normalization_ = mean_normalization;
+  window_half_width_ = window_half_width;
+  window_step_ = window_step;
+}
+
+void PatchCost::allocate(int max_width) {
+  const size_t window = static_cast<size_t>(2 * window_half_width_ + 1);
+  const int max_window_span =
+      static_cast<int>(std::ceil(2.f * static_cast<float>(window_half_width_) * window_step_));
+  row_buf_.resize(static_cast<size_t>(p_ + max_window_span + 2));
+  window_sum_.resize(window);
+  window_sq_.resize(window);
+  band_.left_prefix.resize(static_cast<size_t>(max_width) + 1);
+  band_.right_prefix.resize(static_cast<size_t>(max_width) + 1);
+  band_.column_count.resize(static_cast<size_t>(max_width));
+}
+
+void PatchCost::loadBand(const PyramidLevel& L, int y0) {
+  band_.left_all_valid = L.left_all_valid ||
+      !bandPrefix(L.leftValidRow(y0), L.left_valid.step1(), L.width, p_, band_.column_count.data(),
+                  band_.left_prefix.data());
+  band_.right_all_valid = L.right_all_valid ||
+      !bandPrefix(L.rightValidRow(y0), L.right_valid.step1(), L.width, p_, band_.column_count.data(),
+                  band_.right_prefix.data());
+}
+
+void PatchCost::setPatch(const PyramidLevel& L, int x0, int y0, bool left_all_valid,
+                         const TemplateSums& constants) {
+  cur_.level = &L;
+  cur_.x0 = x0;
+  cur_.y0 = y0;
+  cur_.view = {L.leftRow(y0) + x0, L.gradientRow(y0) + x0, rowStride(L.left)};
+  cur_.valid = L.leftValidRow(y0) + x0;
+  cur_.left_all_valid = left_all_valid;
+  cur_.no_invalid_pixels = left_all_valid && band_.right_all_valid;
+  cur_.right_rows = L.rightRow(y0);
+  cur_.right_stride = rowStride(L.right);
+  cur_.width = L.width;
+  cur_.constants = constants;
+}
+
+void PatchCost::loadPatch(const PyramidLevel& L, int x0, int y0, bool left_all_valid) {
+  setPatch(L, x0, y0, left_all_valid, cur_.constants);
+  if (left_all_valid) kernels_->template_sums(p_, cur_.view, cur_.constants);
+}
+
+void PatchCost::sums(float u, ResidualSums& r, bool with_gradient) {
+  const SampleSpan span = sampleSpan(cur_.x0, u);
+  // Fast path: the span and its right neighbour column inside the image and valid.
+  if (allValidColumns(span.base, span.base + p_ + 1)) {
+    (with_gradient ? kernels_->sums_all_valid : kernels_->sums_all_valid_no_gradient)(
+        cur_.right_rows, cur_.right_stride, p_, span, cur_.view, r);
+    r.g = cur_.constants.g;
+    r.g_sq = cur_.constants.g_sq;
+    return;
+  }
+  sumsNearInvalidOrEdge(span, r);
+}
+
+void PatchCost::sumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
+  const PyramidLevel& L = *cur_.level;
+  // Near or past the image edge with a fully valid template: sum over the
+  // columns inside the image, if those are valid.
+  if (cur_.left_all_valid) {
+    const ColumnRange cols = columnsInside(L.width, p_, span);
+    const int taps = span.frac > 0.f ? 1 : 0;
+    const int lo = span.base + cols.begin, hi = span.base + cols.end + taps;
+    if (cols.empty() || band_.rightInvalid(lo, hi) == 0) {
+      kernels_->sums_clipped(cur_.right_rows, cur_.right_stride, p_, span, cols, cur_.view, r);
+      return;
+    }
+  }
+  // Invalid pixels in the template or under the span: every pixel weighted by both validities.
+  kernels_->sums_masked(cur_.right_rows, cur_.right_stride, L.rightValidRow(cur_.y0), L.right_valid.step1(),
+                        L.width, p_, span, cur_.view, cur_.valid, L.left_valid.step1(), r);
+}
+
+float PatchCost::templateVariance() const {
+  if (cur_.left_all_valid) return cur_.constants.variance;
+  const float ref = cur_.view.tmpl[0];  // sums of t - t[0]: see templateSums
+  const size_t valid_stride = cur_.level->left_valid.step1();
+  float sum = 0.f, sum_sq = 0.f, count = 0.f;
+  for (int y = 0; y < p_; ++y) {
+    const float* t = cur_.view.tmpl + static_cast<size_t>(y) * cur_.view.stride;
+    const uchar* valid = cur_.valid + static_cast<size_t>(y) * valid_stride;
+    for (int x = 0; x < p_; ++x) {
+      const float w = valid[x] ? 1.f : 0.f;
+      const float v = t[x] - ref;
+      sum += w * v;
+      sum_sq += w * v * v;
+      count += w;
+    }
+  }
+  if (count <= 0.f) return 0.f;
+  const float mean = sum / count;
+  return std::max(0.f, sum_sq / count - mean * mean);
+}
+
+float PatchCost::cost(float u, float* valid_count) {
+  ResidualSums r;
+  sums(u, r, /*with_gradient=*/false);
+  if (valid_count) *valid_count = r.count;
+  return meanSquaredResidual(r);
+}
+
+void PatchCost::costs(const float* u, int n, float* out) {
+  SampleSpan spans[kMaxBatchSpans] = {};
+  // All spans' columns valid: sums() would take the all-valid kernel for each.
+  int lo = cur_.width, hi = 0;
+  for (int i = 0; i < n; ++i) {
+    spans[i] = sampleSpan(cur_.x0, u[i]);
+    lo = std::min(lo, spans[i].base);
+    hi = std::max(hi, spans[i].base + p_ + 1);
+  }
+  if (!allValidColumns(lo, hi)) {
+    for (int i = 0; i < n; ++i) out[i] = cost(u[i]);
+    return;
+  }
+  ResidualSums r[kMaxBatchSpans];
+  kernels_->sums_no_gradient_batch(cur_.right_rows, cur_.right_stride, p_, spans, n, cur_.view, r);
+  for (int i = 0; i < n; ++i) out[i] = meanSquaredResidual(r[i]);
+}
+
+float PatchCost::windowCosts(float u, float* out) {
+  const int n = window_half_width_;
+  const float delta = window_step_;
+  const int step = static_cast<int>(delta);
+  if (static_cast<float>(step) == delta) {
+    // Samples whole pixels apart: one interpolated row serves them all.
+    const SampleSpan lo = sampleSpan(cur_.x0, u + static_cast<float>(n) * delta);
+    const int last = lo.base + p_ + 2 * n * step;  // rightmost column read
+    if (allValidColumns(lo.base, last + 1)) {
+      kernels_->window_costs(cur_.right_rows, cur_.right_stride, p_, lo.base, lo.frac, 2 * n + 1, step,
+                             cur_.view, mean_normalization_, row_buf_.data(), window_sum_.data(),
+                             window_sq_.data(), out);
+      return static_cast<float>(p_ * p_);
+    }
+  }
+  float valid_at_optimum = 0.f;
+  for (int j = -n; j <= n; ++j) {
+    out[j + n] = cost(u + static_cast<float>(j) * delta, j == 0 ? &valid_at_optimum : nullptr);
+  }
+  return valid_at_optimum;
+}
+
+}  // namespace detail
+}  // namespace bdis

@@ -1,0 +1,111 @@
+// The photometric cost of one patch at a disparity (docs/method.md, "Patch
+// search"): sums of the residual between the right image, sampled at x - u,
+// and the left template, over the pixels valid in both views. Chooses per
+// call the cheapest kernel the validity of the pixels involved allows.
+#pragma once
+
+#include <cstddef>
+#include <limits>
+#include <vector>
+
+#include "patch_kernels.hpp"
+#include "pyramid.hpp"
+
+namespace bdis {
+namespace detail {
+
+class PatchCost {
+ public:
+  /// What depends only on the parameters.
+  void configure(const KernelSet& kernels, int patch_size, bool mean_normalization,
+                 int window_half_width, float window_step);
+  /// Scratch for levels up to `max_width` wide.
+  void allocate(int max_width);
+
+  /// Makes the validity band describe level rows y0 .. y0 + p - 1 of L: the
+  /// patch row that the following patches lie in.
+  void loadBand(const PyramidLevel& L, int y0);
+  /// Invalid left pixels of the band's patch at column x0.
+  int leftInvalid(int x0) const { return band_.leftInvalid(x0, x0 + p_); }
+  /// Makes the patch at (x0, y0) of L current. `constants` are its template
+  /// sums when `left_all_valid` (see templateSums), else unused.
+  void setPatch(const PyramidLevel& L, int x0, int y0, bool left_all_valid, const TemplateSums& constants);
+  /// setPatch for a patch first seen: computes its template sums.
+  void loadPatch(const PyramidLevel& L, int x0, int y0, bool left_all_valid);
+  bool leftAllValid() const { return cur_.left_all_valid; }
+  const TemplateSums& constants() const { return cur_.constants; }
+  int levelWidth() const { return cur_.width; }
+
+  /// The residual sums at disparity u; g_diff only `with_gradient` (a cost alone needs none).
+  void sums(float u, ResidualSums& r, bool with_gradient = true);
+  /// Mean squared residual at disparity u (mean-normalised if enabled); +inf without pixels.
+  float cost(float u, float* valid_count = nullptr);
+  /// cost() at n <= kMaxBatchSpans disparities, in one pass over the
+  /// template when all of them take the fast path.
+  void costs(const float* u, int n, float* out);
+  /// The 2n+1 costs of the posterior window around u (u + j * delta, j = -n..n)
+  /// into `out`, through one shared interpolation when they allow it;
+  /// returns the valid pixels at u.
+  float windowCosts(float u, float* out);
+  /// Grey-level variance of the current patch's valid template pixels.
+  float templateVariance() const;
+  float meanSquaredResidual(const ResidualSums& r) const {
+    if (r.count <= 0.f) return std::numeric_limits<float>::infinity();
+    const float mean = r.diff / r.count;
+    return r.diff_sq / r.count - (mean_normalization_ ? mean * mean : 0.f);
+  }
+
+ private:
+  /// The patch being searched: template, gradient and validity read in place
+  /// from the level, plus the template's constant sums the fast path needs.
+  struct CurrentPatch {
+    const PyramidLevel* level = nullptr;
+    int x0 = 0, y0 = 0;
+    PatchView view{};
+    const uchar* valid = nullptr;  ///< left validity at (x0, y0), rows level->left_valid.step apart
+    bool left_all_valid = false;
+    /// Every left pixel of the patch and every right pixel of its patch
+    /// row's band valid: an in-image match needs no validity lookup.
+    bool no_invalid_pixels = false;
+    const float* right_rows = nullptr;  ///< right image, column 0 of row y0
+    size_t right_stride = 0;
+    int width = 0;  ///< of the level
+    /// Sums of gx and gx^2 and the template variance; only when left_all_valid.
+    TemplateSums constants{};
+  };
+  /// The invalid pixels of the current patch row's band (level rows y0 ..
+  /// y0 + p - 1) per column, summed along the row (level width + 1 entries):
+  /// the count over columns [lo, hi) of the band is prefix[hi] - prefix[lo].
+  /// Made for each patch row from the validity masks: that answers every
+  /// query of the search, which asks only about the rows of its patch row,
+  /// and writes no level-sized integral images (4 MB per pair at 1920x1080).
+  struct ValidityBand {
+    std::vector<int> left_prefix, right_prefix;
+    std::vector<uchar> column_count;  ///< scratch: invalid pixels of each column of the band
+    bool left_all_valid = false, right_all_valid = false;
+    int leftInvalid(int lo, int hi) const { return left_all_valid ? 0 : left_prefix[hi] - left_prefix[lo]; }
+    int rightInvalid(int lo, int hi) const { return right_all_valid ? 0 : right_prefix[hi] - right_prefix[lo]; }
+  };
+
+  /// Whether the all-valid kernels may read right-image columns [lo, hi) on
+  /// the current patch's rows: every template pixel valid, the columns inside
+  /// the image and none of them invalid (one count where the band has any).
+  bool allValidColumns(int lo, int hi) const {
+    return cur_.left_all_valid && lo >= 0 && hi <= cur_.width &&
+           (cur_.no_invalid_pixels || band_.rightInvalid(lo, hi) == 0);
+  }
+  /// sums() where the all-valid kernels may not run: near the image edge or invalid pixels.
+  void sumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r);
+
+  const KernelSet* kernels_ = nullptr;
+  int p_ = 0;
+  bool mean_normalization_ = true;
+  int window_half_width_ = 2;
+  float window_step_ = 1.f;
+  CurrentPatch cur_;
+  ValidityBand band_;
+  std::vector<float> row_buf_, window_sum_, window_sq_;  ///< window_costs kernel scratch
+};
+
+}  // namespace detail
+}  // namespace bdis

@@ -1,0 +1,362 @@
+// The inner loops of the patch search (src/core/patch_kernels.hpp) against a
+// plain per-pixel reference, so any faster path must give the same sums.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <algorithm>
+#include <cstdio>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "patch_kernels.hpp"
+
+namespace {
+
+using namespace bdis::detail;
+
+/// Reference: mean (optionally mean-normalised) squared residual of the p x p
+/// template at (x0, y0) against the right image sampled at x - u, bilinear in x.
+double referenceCost(const cv::Mat1f& right, const std::vector<float>& T, int x0, int y0, int p,
+                     double u, bool mean_normalization) {
+  double s = 0, ss = 0;
+  for (int y = 0; y < p; ++y) {
+    for (int x = 0; x < p; ++x) {
+      const double xs = x0 + x - u;
+      const int b = static_cast<int>(std::floor(xs));
+      const double f = xs - b;
+      const double sample = (1 - f) * right(y0 + y, b) + f * right(y0 + y, b + 1);
+      const double d = sample - T[static_cast<size_t>(y * p + x)];
+      s += d;
+      ss += d * d;
+    }
+  }
+  const double n = p * p, mean = s / n;
+  return ss / n - (mean_normalization ? mean * mean : 0.0);
+}
+
+struct KernelCase {
+  int p, half_width, step;
+  bool mean_normalization;
+};
+
+void PrintTo(const KernelCase& c, std::ostream* os) {
+  *os << "p=" << c.p << " n=" << c.half_width << " step=" << c.step
+      << (c.mean_normalization ? " mean-normalised" : " plain");
+}
+
+class WindowCosts : public ::testing::TestWithParam<KernelCase> {};
+
+TEST_P(WindowCosts, SharedRowsGiveThePerSampleCosts) {
+  const KernelCase c = GetParam();
+  cv::RNG rng(11);
+  cv::Mat1f right(40, 160);
+  rng.fill(right, cv::RNG::UNIFORM, 0.f, 255.f);
+  const int x0 = 70, y0 = 5, samples = 2 * c.half_width + 1;
+  std::vector<float> T(static_cast<size_t>(c.p * c.p));
+  for (float& t : T) t = rng.uniform(0.f, 255.f);
+  std::vector<float> row(static_cast<size_t>(c.p + 2 * c.half_width * c.step + 2));
+  std::vector<float> sum(samples), sum_sq(samples), costs(samples);
+  for (double u : {3.0, 12.25, 17.7, 30.999}) {
+    const SampleSpan lo = sampleSpan(x0, static_cast<float>(u + c.half_width * c.step));
+    windowCostsAllValid(right[y0], right.step1(), c.p, lo.base, lo.frac, samples, c.step,
+                        PatchView{T.data(), nullptr, static_cast<size_t>(c.p)},
+                        c.mean_normalization, row.data(), sum.data(), sum_sq.data(),
+                        costs.data());
+    for (int j = 0; j < samples; ++j) {
+      const double uj = u + (j - c.half_width) * c.step;
+      const double want = referenceCost(right, T, x0, y0, c.p, uj, c.mean_normalization);
+      EXPECT_NEAR(costs[static_cast<size_t>(j)], want, 2e-4 * want)
+          << "p=" << c.p << " u=" << u << " sample " << j;
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(PatchKernels, WindowCosts,
+                         ::testing::Values(KernelCase{8, 2, 1, true}, KernelCase{8, 2, 1, false},
+                                           KernelCase{5, 4, 2, true}, KernelCase{12, 1, 3, true}));
+
+TEST(PatchKernels, AllValidSumsMatchTheMaskedPathWhenEverythingIsValid) {
+  cv::RNG rng(3);
+  const int p = 8, x0 = 50, y0 = 4;
+  cv::Mat1f right(20, 120);
+  rng.fill(right, cv::RNG::UNIFORM, 0.f, 255.f);
+  cv::Mat1b valid(right.size(), uchar(1));
+  std::vector<float> T(p * p), G(p * p);
+  std::vector<uchar> M(p * p, 1);
+  for (float& t : T) t = rng.uniform(0.f, 255.f);
+  for (float& g : G) g = rng.uniform(-20.f, 20.f);
+  const PatchView view{T.data(), G.data(), p};
+  const SampleSpan span = sampleSpan(x0, 9.37f);
+  ResidualSums fast, masked;
+  sumsAllValid(right[y0], right.step1(), p, span, view, fast);
+  sumsMasked(right[y0], right.step1(), valid[y0], valid.step1(), right.cols, p, span, view, M.data(), p,
+             masked);
+  EXPECT_EQ(fast.count, masked.count);
+  EXPECT_NEAR(fast.diff, masked.diff, 1e-3 * std::fabs(masked.diff) + 1e-2);
+  EXPECT_NEAR(fast.diff_sq, masked.diff_sq, 1e-4 * masked.diff_sq);
+  EXPECT_NEAR(fast.g_diff, masked.g_diff, 1e-3 * std::fabs(masked.g_diff) + 1e-1);
+  EXPECT_NEAR(referenceCost(right, T, x0, y0, p, 9.37, false), masked.diff_sq / masked.count,
+              1e-3 * masked.diff_sq / masked.count);
+}
+
+// Every kernel set this library has (scalar, baseline fixed-size, AVX2 where
+// the CPU has it) against the double-precision reference, for each patch size
+// with a fixed-size version and one without.
+TEST(PatchKernels, EveryIsaAgreesWithTheReference) {
+  cv::RNG rng(5);
+  cv::Mat1f right(48, 200);
+  rng.fill(right, cv::RNG::UNIFORM, 0.f, 255.f);
+  int sets_checked = 0;
+  for (KernelIsa isa : {KernelIsa::Scalar, KernelIsa::Baseline, KernelIsa::Avx2}) {
+    if (!kernelIsaAvailable(isa)) continue;
+    for (int p : {4, 8, 12, 16, 24, 32, 10}) {
+      const KernelSet& k = kernelsFor(p, isa);
+      ++sets_checked;
+      const int x0 = 90, y0 = 7, n = 2, step = 1, samples = 2 * n + 1;
+      std::vector<float> T(static_cast<size_t>(p * p)), G(T.size());
+      for (float& t : T) t = rng.uniform(0.f, 255.f);
+      for (float& g : G) g = rng.uniform(-30.f, 30.f);
+      std::vector<float> row(static_cast<size_t>(p + 2 * n * step + 2));
+      std::vector<float> sum(samples), sum_sq(samples), costs(samples);
+      for (double u : {2.0, 11.3, 25.75}) {
+        const SampleSpan span = sampleSpan(x0, static_cast<float>(u));
+        ResidualSums r;
+        const PatchView view{T.data(), G.data(), static_cast<size_t>(p)};
+        k.sums_all_valid(right[y0], right.step1(), p, span, view, r);
+        const double want = referenceCost(right, T, x0, y0, p, u, false);
+        EXPECT_EQ(r.count, p * p) << k.name << " p=" << p;
+        EXPECT_NEAR(r.diff_sq / r.count, want, 2e-4 * want) << k.name << " p=" << p << " u=" << u;
+        // A cost alone: the same sums, bit for bit, without the gradient's.
+        ResidualSums cost;
+        k.sums_all_valid_no_gradient(right[y0], right.step1(), p, span, view, cost);
+        EXPECT_EQ(cost.count, r.count) << k.name << " p=" << p;
+        EXPECT_EQ(cost.diff, r.diff) << k.name << " p=" << p << " u=" << u;
+        EXPECT_EQ(cost.diff_sq, r.diff_sq) << k.name << " p=" << p << " u=" << u;
+        // Up to three spans at once (propagation's costs): each as sums_all_valid_no_gradient gives it.
+        const SampleSpan spans[kMaxBatchSpans] = {span, sampleSpan(x0, static_cast<float>(u) + 0.4f),
+                                                  sampleSpan(x0, static_cast<float>(u) - 3.7f)};
+        for (int count = 1; count <= kMaxBatchSpans; ++count) {
+          ResidualSums batch[kMaxBatchSpans];
+          k.sums_no_gradient_batch(right[y0], right.step1(), p, spans, count, view, batch);
+          for (int i = 0; i < count; ++i) {
+            ResidualSums single;
+            k.sums_all_valid_no_gradient(right[y0], right.step1(), p, spans[i], view, single);
+            EXPECT_EQ(batch[i].count, single.count) << k.name << " p=" << p << " span " << i << " of " << count;
+            EXPECT_EQ(batch[i].diff, single.diff) << k.name << " p=" << p << " span " << i << " of " << count;
+            EXPECT_EQ(batch[i].diff_sq, single.diff_sq) << k.name << " p=" << p << " span " << i << " of " << count;
+          }
+        }
+        const SampleSpan lo = sampleSpan(x0, static_cast<float>(u + n * step));
+        k.window_costs(right[y0], right.step1(), p, lo.base, lo.frac, samples, step, view, true,
+                       row.data(), sum.data(), sum_sq.data(), costs.data());
+        for (int j = 0; j < samples; ++j) {
+          const double wj = referenceCost(right, T, x0, y0, p, u + (j - n) * step, true);
+          EXPECT_NEAR(costs[static_cast<size_t>(j)], wj, 2e-4 * wj)
+              << k.name << " p=" << p << " u=" << u << " sample " << j;
+        }
+      }
+    }
+  }
+  std::printf("[measured] kernel sets checked: %d (AVX2 %s)\n", sets_checked,
+              kernelIsaAvailable(KernelIsa::Avx2) ? "available" : "not available here");
+  EXPECT_GE(sets_checked, 14);
+  // The fixed-size sets exist where they should.
+  EXPECT_STREQ(kernelsFor(8, KernelIsa::Baseline).name, "baseline");
+  EXPECT_STREQ(kernelsFor(10, KernelIsa::Baseline).name, "scalar");
+}
+
+// Every kernel set's template constants (sum gx, sum gx^2, grey-level
+// variance) against double-precision sums, on bright, nearly flat templates
+// too, where a variance from plain sums of squares would cancel in float.
+TEST(PatchKernels, EveryIsaTemplateSumsMatchTheReference) {
+  cv::RNG rng(21);
+  int sets_checked = 0;
+  for (KernelIsa isa : {KernelIsa::Scalar, KernelIsa::Baseline, KernelIsa::Avx2}) {
+    if (!kernelIsaAvailable(isa)) continue;
+    for (int p : {4, 8, 16, 32, 10}) {
+      const KernelSet& k = kernelsFor(p, isa);
+      ++sets_checked;
+      const int stride = p + 5;  // rows of a wider level
+      for (const auto& [lo, hi] : {std::pair<float, float>{0.f, 255.f}, {250.f, 250.5f}}) {
+        std::vector<float> T(static_cast<size_t>(stride * p)), G(T.size());
+        for (float& t : T) t = rng.uniform(lo, hi);
+        for (float& g : G) g = rng.uniform(-40.f, 40.f);
+        double sg = 0, sgg = 0, st = 0, stt = 0;
+        for (int y = 0; y < p; ++y) {
+          for (int x = 0; x < p; ++x) {
+            const double t = T[static_cast<size_t>(y * stride + x)], g = G[static_cast<size_t>(y * stride + x)];
+            sg += g, sgg += g * g, st += t, stt += t * t;
+          }
+        }
+        const double n = p * p, variance = stt / n - (st / n) * (st / n);
+        TemplateSums got;
+        k.template_sums(p, PatchView{T.data(), G.data(), static_cast<size_t>(stride)}, got);
+        const std::string where = std::string(k.name) + " p=" + std::to_string(p) + " grey " +
+                                  std::to_string(lo) + ".." + std::to_string(hi);
+        EXPECT_NEAR(got.g, sg, 1e-4 * n * 40) << where;
+        EXPECT_NEAR(got.g_sq, sgg, 1e-5 * sgg) << where;
+        EXPECT_NEAR(got.variance, variance, 1e-3 * variance + 1e-6) << where;
+        EXPECT_GT(got.variance, 0.f) << where;
+      }
+    }
+  }
+  EXPECT_GE(sets_checked, 10);
+}
+
+// Every kernel set's fusion of a patch adds what the scalar loop adds (up to
+// the rounding of a fused multiply-add), on rows of a wider image.
+TEST(PatchKernels, EveryIsaAccumulatesAPatchLikeTheScalarLoop) {
+  cv::RNG rng(13);
+  int sets_checked = 0;
+  for (KernelIsa isa : {KernelIsa::Baseline, KernelIsa::Avx2}) {
+    if (!kernelIsaAvailable(isa)) continue;
+    for (int p : {8, 16, 32, 10}) {
+      const KernelSet& k = kernelsFor(p, isa);
+      ++sets_checked;
+      std::vector<float> spatial(static_cast<size_t>(p * p));
+      for (float& g : spatial) g = rng.uniform(0.f, 1.f);
+      cv::Mat1f sums[2][3];
+      for (cv::Mat1f& m : sums[0]) {
+        m.create(p + 3, p + 7);
+        rng.fill(m, cv::RNG::UNIFORM, 0.f, 10.f);
+      }
+      for (int i = 0; i < 3; ++i) sums[1][i] = sums[0][i].clone();
+      for (int patch = 0; patch < 3; ++patch) {
+        const float post = rng.uniform(0.f, 1.f), d = rng.uniform(0.f, 40.f), ev = rng.uniform(0.f, 1.f);
+        const int x0 = patch + 1, y0 = patch;
+        k.accumulate_patch(p, spatial.data(), post, d, ev, &sums[0][0](y0, x0), &sums[0][1](y0, x0),
+                           &sums[0][2](y0, x0), sums[0][0].step1());
+        accumulatePatch(p, spatial.data(), post, d, ev, &sums[1][0](y0, x0), &sums[1][1](y0, x0),
+                        &sums[1][2](y0, x0), sums[1][0].step1());
+      }
+      for (int i = 0; i < 3; ++i) {
+        EXPECT_LE(cv::norm(sums[0][i], sums[1][i], cv::NORM_INF), 1e-6 * cv::norm(sums[1][i], cv::NORM_INF))
+            << k.name << " p=" << p;
+      }
+    }
+  }
+  EXPECT_GE(sets_checked, 4);
+}
+
+// Every kernel set's clipped sums (the fixed-size ones read whole rows from
+// the padding and mask them) against the per-pixel masked path, at matches
+// reaching past either image edge.
+TEST(PatchKernels, ClippedSumsMatchTheMaskedPathAtTheImageEdges) {
+  cv::RNG rng(9);
+  const int y0 = 2, width = 70;
+  cv::Mat1f padded(40, width + 2 * kRightPadding, 0.f);
+  cv::Mat1f right = padded.colRange(kRightPadding, kRightPadding + width);
+  rng.fill(right, cv::RNG::UNIFORM, 0.f, 255.f);
+  const cv::Mat1b valid(right.size(), uchar(1));
+  int partial = 0, sets_checked = 0;
+  for (KernelIsa isa : {KernelIsa::Scalar, KernelIsa::Baseline, KernelIsa::Avx2}) {
+    if (!kernelIsaAvailable(isa)) continue;
+    for (int p : {8, 16, 32, 10}) {
+      const KernelSet& k = kernelsFor(p, isa);
+      ++sets_checked;
+      std::vector<float> T(static_cast<size_t>(p * p)), G(T.size());
+      std::vector<uchar> M(T.size(), 1);
+      for (float& t : T) t = rng.uniform(0.f, 255.f);
+      for (float& g : G) g = rng.uniform(-20.f, 20.f);
+      const PatchView view{T.data(), G.data(), static_cast<size_t>(p)};
+      for (int x0 : {0, 3, width - p - 5, width - p - 2, width - p}) {
+        for (float u : {-6.5f, -2.f, 0.f, 0.25f, 4.f, 7.75f, 12.f, static_cast<float>(p) + 3.5f}) {
+          const SampleSpan span = sampleSpan(x0, u);
+          ResidualSums clipped, masked;
+          k.sums_clipped(right[y0], right.step1(), p, span, columnsInside(width, p, span), view,
+                         clipped);
+          sumsMasked(right[y0], right.step1(), valid[y0], valid.step1(), width, p, span, view, M.data(),
+                     static_cast<size_t>(p), masked);
+          EXPECT_EQ(clipped.count, masked.count) << k.name << " p=" << p << " x0=" << x0 << " u=" << u;
+          EXPECT_NEAR(clipped.diff, masked.diff, 1e-3 * std::fabs(masked.diff) + 1e-1);
+          EXPECT_NEAR(clipped.diff_sq, masked.diff_sq, 1e-4 * masked.diff_sq + 1e-3);
+          EXPECT_NEAR(clipped.g_diff, masked.g_diff, 1e-3 * std::fabs(masked.g_diff) + 1e-1);
+          EXPECT_NEAR(clipped.g, masked.g, 1e-3 * std::fabs(masked.g) + 1e-2);
+          EXPECT_NEAR(clipped.g_sq, masked.g_sq, 1e-4 * masked.g_sq + 1e-3);
+          if (masked.count > 0 && masked.count < p * p) ++partial;
+        }
+      }
+    }
+  }
+  EXPECT_GE(sets_checked, 8);
+  EXPECT_GE(partial, 40);  // the cases do reach past the edges
+}
+
+// Every kernel set's masked sums (the fixed-size ones weight lanes by the
+// validity bytes and read the zero padding for columns outside the image)
+// against a per-pixel double-precision reference, with invalid pixels in the
+// template and in the right image and matches reaching past either edge.
+TEST(PatchKernels, EveryIsaMaskedSumsMatchThePerPixelReference) {
+  cv::RNG rng(17);
+  const int width = 90, height = 48;
+  cv::Mat1f padded(height, width + 2 * kRightPadding, 0.f);
+  cv::Mat1f right = padded.colRange(kRightPadding, kRightPadding + width);
+  rng.fill(right, cv::RNG::UNIFORM, 0.f, 255.f);
+  cv::Mat1b valid_padded(height, width + 2 * kRightPadding, uchar(0));
+  cv::Mat1b valid = valid_padded.colRange(kRightPadding, kRightPadding + width);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) valid(y, x) = rng.uniform(0, 5) != 0;  // one in five invalid
+  }
+  int sets_checked = 0, cases = 0, partial = 0;
+  for (KernelIsa isa : {KernelIsa::Scalar, KernelIsa::Baseline, KernelIsa::Avx2}) {
+    if (!kernelIsaAvailable(isa)) continue;
+    for (int p : {8, 16, 32, 10}) {
+      const KernelSet& k = kernelsFor(p, isa);
+      ++sets_checked;
+      std::vector<float> T(static_cast<size_t>(p * p)), G(T.size());
+      std::vector<uchar> M(T.size());
+      for (float& t : T) t = rng.uniform(0.f, 255.f);
+      for (float& g : G) g = rng.uniform(-20.f, 20.f);
+      for (uchar& m : M) m = rng.uniform(0, 4) != 0;
+      const PatchView view{T.data(), G.data(), static_cast<size_t>(p)};
+      const int y0 = 3;
+      for (int x0 : {0, 5, width / 2, width - p - 3, width - p}) {
+        for (float u : {-7.5f, -1.f, 0.f, 0.25f, 3.f, 9.6f, 21.f, static_cast<float>(p) + 4.5f, 80.f}) {
+          const SampleSpan span = sampleSpan(x0, u);
+          ResidualSums got;
+          k.sums_masked(right[y0], right.step1(), valid[y0], valid.step1(), width, p, span, view, M.data(),
+                        static_cast<size_t>(p), got);
+          // Sums, and sums of magnitudes that bound the float rounding.
+          double n = 0, sd = 0, sdd = 0, sgd = 0, sg = 0, sgg = 0, abs_d = 0, abs_gd = 0, abs_g = 0;
+          for (int y = 0; y < p; ++y) {
+            for (int i = 0; i < p; ++i) {
+              const int xr = span.base + i, taps = span.frac > 0.f ? 1 : 0;
+              if (!M[y * p + i] || xr < 0 || xr + taps >= width) continue;
+              if (!valid(y0 + y, xr) || !valid(y0 + y, xr + taps)) continue;
+              const double sample = (1.0 - span.frac) * right(y0 + y, xr) +
+                                    (taps ? span.frac * right(y0 + y, xr + 1) : 0.0);
+              const double d = sample - T[y * p + i], g = G[y * p + i];
+              n += 1;
+              sd += d;
+              sdd += d * d;
+              sgd += g * d;
+              sg += g;
+              sgg += g * g;
+              abs_d += std::fabs(d);
+              abs_gd += std::fabs(g * d);
+              abs_g += std::fabs(g);
+            }
+          }
+          const std::string where = std::string(k.name) + " p=" + std::to_string(p) +
+                                    " x0=" + std::to_string(x0) + " u=" + std::to_string(u);
+          EXPECT_EQ(got.count, n) << where;
+          EXPECT_NEAR(got.diff, sd, 1e-4 * abs_d + 1e-3) << where;
+          EXPECT_NEAR(got.diff_sq, sdd, 1e-4 * sdd + 1e-3) << where;
+          EXPECT_NEAR(got.g_diff, sgd, 1e-4 * abs_gd + 1e-3) << where;
+          EXPECT_NEAR(got.g, sg, 1e-4 * abs_g + 1e-3) << where;
+          EXPECT_NEAR(got.g_sq, sgg, 1e-4 * sgg + 1e-3) << where;
+          ++cases;
+          if (n > 0 && n < p * p / 2) ++partial;
+        }
+      }
+    }
+  }
+  EXPECT_GE(sets_checked, 8);
+  EXPECT_GE(partial, 40);  // many patches mostly masked or past an edge
+  EXPECT_GE(cases, 8 * 45);
+}
+
+}  // namespace

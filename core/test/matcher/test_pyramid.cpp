@@ -1,0 +1,116 @@
+// The mirrored pyramid of the left-right check (pyramid.hpp): its
+// finest level holds one search band of rows at a time, and every row it
+// holds must equal the row of the whole mirrored level, bit for bit.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <utility>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "pyramid.hpp"
+
+namespace {
+
+using bdis::detail::MirroredPyramid;
+using bdis::detail::PyramidLevel;
+using bdis::detail::StereoPyramid;
+
+/// A textured BGR pair with what makes validity matter: a black border down
+/// the left side of the left image, a black hole in the right one.
+std::pair<cv::Mat, cv::Mat> texturedPairWithInvalidPixels(int w, int h) {
+  cv::RNG rng(7);
+  cv::Mat left(h, w, CV_8UC3), right(h, w, CV_8UC3);
+  rng.fill(left, cv::RNG::UNIFORM, 1, 255);
+  rng.fill(right, cv::RNG::UNIFORM, 1, 255);
+  left.colRange(0, 9).setTo(cv::Scalar::all(0));
+  right(cv::Rect(w / 2, h / 3, 15, 11)).setTo(cv::Scalar::all(0));
+  return {left, right};
+}
+
+template <typename T>
+bool sameRow(const T* a, const T* b, int n) {
+  return std::memcmp(a, b, sizeof(T) * static_cast<size_t>(n)) == 0;
+}
+
+/// Rows [from, to) of `banded` against the same level rows of `whole`.
+void expectSameRows(const PyramidLevel& banded, const PyramidLevel& whole, int from, int to) {
+  const int w = whole.width;
+  for (int y = from; y < to; ++y) {
+    SCOPED_TRACE("level row " + std::to_string(y));
+    EXPECT_TRUE(sameRow(banded.leftRow(y), whole.leftRow(y), w));
+    EXPECT_TRUE(sameRow(banded.gradientRow(y), whole.gradientRow(y), w));
+    EXPECT_TRUE(sameRow(banded.rightRow(y), whole.rightRow(y), w));
+    EXPECT_TRUE(sameRow(banded.leftValidRow(y), whole.leftValidRow(y), w));
+    EXPECT_TRUE(sameRow(banded.rightValidRow(y), whole.rightValidRow(y), w));
+    // The kernels read the zero padding around the right rows and their validity.
+    EXPECT_EQ(banded.rightRow(y)[-1], 0.f);
+    EXPECT_EQ(banded.rightRow(y)[w], 0.f);
+    EXPECT_EQ(banded.rightValidRow(y)[-1], 0);
+    EXPECT_EQ(banded.rightValidRow(y)[w], 0);
+  }
+}
+
+TEST(MirroredPyramid, WholeLevelIsTheFlippedPair) {
+  const auto [left, right] = texturedPairWithInvalidPixels(203, 121);
+  StereoPyramid source;
+  MirroredPyramid mirrored;
+  source.build(left, right, 3, 1);
+  const int h = source.level(1).height;
+  mirrored.build(source, 3, 1, h);
+  mirrored.loadFinestRows(source.level(1), 0, h);
+  const PyramidLevel& from = source.level(1);
+  const PyramidLevel& l = mirrored.level(1);
+  ASSERT_EQ(l.width, 101);
+  ASSERT_EQ(l.height, 60);
+  int invalid_left = 0, invalid_right = 0;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < l.width; ++x) {
+      const int fx = l.width - 1 - x;
+      ASSERT_EQ(l.leftRow(y)[x], from.right(y, fx)) << x << "," << y;
+      ASSERT_EQ(l.rightRow(y)[x], from.left(y, fx)) << x << "," << y;
+      ASSERT_EQ(l.leftValidRow(y)[x], from.right_valid(y, fx)) << x << "," << y;
+      ASSERT_EQ(l.rightValidRow(y)[x], from.left_valid(y, fx)) << x << "," << y;
+      invalid_left += l.leftValidRow(y)[x] == 0;
+      invalid_right += l.rightValidRow(y)[x] == 0;
+    }
+  }
+  // The right image's hole (15x11 at level 0) and the left image's border
+  // (9 columns) reach level 1; the flags say what the rows say.
+  EXPECT_GT(invalid_left, 20);
+  EXPECT_EQ(invalid_right, 5 * h);
+  EXPECT_FALSE(l.left_all_valid);
+  EXPECT_FALSE(l.right_all_valid);
+}
+
+TEST(MirroredPyramid, BandedLevelHoldsTheRowsOfTheWholeOne) {
+  const auto [left, right] = texturedPairWithInvalidPixels(203, 121);
+  StereoPyramid source;
+  MirroredPyramid whole, banded;
+  source.build(left, right, 3, 1);
+  const int h = source.level(1).height;  // 60
+  constexpr int kBandRows = 13;
+  whole.build(source, 3, 1, h);
+  whole.loadFinestRows(source.level(1), 0, h);
+  banded.build(source, 3, 1, kBandRows);
+  // Bands as the search loads them (overlapping, the last one flush with
+  // the bottom, one shorter than the capacity), then one back at the top.
+  for (const auto& [from, to] : std::vector<std::pair<int, int>>{
+           {0, 13}, {10, 23}, {20, 33}, {47, 60}, {52, 60}, {0, 13}}) {
+    SCOPED_TRACE("band " + std::to_string(from) + ".." + std::to_string(to));
+    banded.loadFinestRows(source.level(1), from, to);
+    EXPECT_EQ(banded.level(1).first_row, from);
+    expectSameRows(banded.level(1), whole.level(1), from, to);
+  }
+  // The band is all the memory the level takes.
+  EXPECT_EQ(banded.level(1).left.rows, kBandRows);
+  EXPECT_EQ(banded.level(1).left_gx.rows, kBandRows);
+  // A band taller than that is a caller's error, not a write past the buffer.
+  EXPECT_THROW(banded.loadFinestRows(source.level(1), 0, kBandRows + 1), cv::Exception);
+  // Coarser levels are mirrored whole.
+  EXPECT_EQ(banded.level(2).first_row, 0);
+  expectSameRows(banded.level(2), whole.level(2), 0, whole.level(2).height);
+}
+
+}  // namespace

@@ -1,0 +1,99 @@
+// Runs the built bdis_eval on a small sequence written to a temp directory:
+// scoring disparities computed elsewhere (--predictions, as the demo does with
+// the nodelet's output) and its command-line errors.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <regex>
+#include <string>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "bdis_stereo/evaluation.hpp"
+#include "tool_runner.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using bdis_test::readFile;
+using bdis_test::RunResult;
+
+constexpr int kWidth = 64, kHeight = 48;
+constexpr float kTrueDisparity = 7.f;
+
+class BdisEvalTest : public bdis_test::ToolTest {
+ protected:
+  BdisEvalTest() : ToolTest("bdis_eval") {}
+
+  // Three frames with constant ground truth; the images only need to be
+  // non-black (the score masks black left pixels).
+  void writeSequence() {
+    for (const char* sub : {"seq/left", "seq/right", "seq/gt_disparity", "pred"})
+      fs::create_directories(path(sub));
+    const cv::Mat grey(kHeight, kWidth, CV_8UC1, cv::Scalar(100));
+    const cv::Mat gt(kHeight, kWidth, CV_32FC1, cv::Scalar(kTrueDisparity));
+    for (const char* name : {"000000.png", "000001.png", "000002.png"}) {
+      ASSERT_TRUE(cv::imwrite(path(std::string("seq/left/") + name), grey));
+      ASSERT_TRUE(cv::imwrite(path(std::string("seq/right/") + name), grey));
+      bdis::writeDisparityPng(path(std::string("seq/gt_disparity/") + name), gt);
+    }
+  }
+
+  static double jsonNumber(const std::string& json, const std::string& method, const std::string& key) {
+    std::smatch m;
+    const std::regex re("\"method\": \"" + method + "\"[^}]*\"" + key + "\": ([0-9.eE+-]+)");
+    if (!std::regex_search(json, m, re)) return -1;
+    return std::stod(m[1]);
+  }
+};
+
+TEST_F(BdisEvalTest, ScoresPredictionsAndSkipsFramesWithoutOne) {
+  writeSequence();
+  // Frame 0: exact except the left quarter, 5 px off (bad2); frame 1 missing
+  // (a dropped frame); frame 2: exact with the right half without estimate.
+  cv::Mat d0(kHeight, kWidth, CV_32FC1, cv::Scalar(kTrueDisparity));
+  d0.colRange(0, kWidth / 4).setTo(kTrueDisparity + 5.f);
+  cv::Mat d2(kHeight, kWidth, CV_32FC1, cv::Scalar(kTrueDisparity));
+  d2.colRange(kWidth / 2, kWidth).setTo(-1.f);
+  bdis::writeDisparityPng(path("pred/000000.png"), d0);
+  bdis::writeDisparityPng(path("pred/000002.png"), d2);
+
+  const RunResult r = run({path("seq"), "--predictions", path("pred"), "--json", path("r.json")});
+  ASSERT_TRUE(r.exited());
+  ASSERT_EQ(r.code(), 0) << r.err;
+  EXPECT_NE(r.out.find("2 of 3 frames have predictions"), std::string::npos) << r.out;
+  const std::string json = readFile(path("r.json"));
+  EXPECT_EQ(jsonNumber(json, "predictions", "frames"), 2);
+  // 2 frames x 3072 scorable px; 3072 + 1536 estimated; 768 of them 5 px off.
+  EXPECT_NEAR(jsonNumber(json, "predictions", "density"), 0.75, 1e-6);
+  EXPECT_NEAR(jsonNumber(json, "predictions", "bad2"), 768.0 / 4608.0, 1e-6);
+  EXPECT_NEAR(jsonNumber(json, "predictions", "median_error"), 0.0, 1e-6);
+  EXPECT_EQ(json.find("\"dis_fast\""), std::string::npos) << "only predictions unless --methods";
+
+  // With --methods, the others run on the same two frames.
+  const RunResult both = run({path("seq"), "--predictions", path("pred"), "--methods",
+                              "predictions,dis_fast", "--json", path("b.json")});
+  ASSERT_EQ(both.code(), 0) << both.err;
+  EXPECT_EQ(jsonNumber(readFile(path("b.json")), "dis_fast", "frames"), 2);
+}
+
+TEST_F(BdisEvalTest, PredictionErrors) {
+  writeSequence();
+  const RunResult two = run({path("seq"), path("seq"), "--predictions", path("pred")});
+  EXPECT_EQ(two.code(), 2);
+  EXPECT_NE(two.err.find("--predictions scores one sequence"), std::string::npos) << two.err;
+
+  const RunResult missing = run({path("seq"), "--predictions", path("nowhere")});
+  EXPECT_EQ(missing.code(), 1);
+  EXPECT_NE(missing.err.find("is not a directory"), std::string::npos) << missing.err;
+
+  const RunResult empty = run({path("seq"), "--predictions", path("pred")});
+  EXPECT_EQ(empty.code(), 1);
+  EXPECT_NE(empty.err.find("has a file in"), std::string::npos) << empty.err;
+
+  const RunResult no_dir = run({path("seq"), "--methods", "predictions"});
+  EXPECT_EQ(no_dir.code(), 2);
+  EXPECT_NE(no_dir.err.find("needs --predictions DIR"), std::string::npos) << no_dir.err;
+}
+
+}  // namespace

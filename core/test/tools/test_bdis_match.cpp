@@ -1,0 +1,326 @@
+// Runs the built bdis_match executable on synthetic pairs written to a temp
+// directory and checks its outputs, messages and exit codes.
+#include <gtest/gtest.h>
+
+#include <spawn.h>
+#include <sys/wait.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "bdis_stereo/evaluation.hpp"
+#include "test_images.hpp"
+#include "tool_runner.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kShift = 6;  // px, the known disparity of the synthetic pair
+constexpr int kWidth = 160, kHeight = 128;
+
+using bdis_test::readFile;
+using bdis_test::RunResult;
+
+class BdisMatchTest : public bdis_test::ToolTest {
+ protected:
+  BdisMatchTest() : ToolTest("bdis_match") {}
+
+  // A smooth random texture (no pure black) and the pair with disparity kShift.
+  static void makePair(int seed, cv::Mat& left, cv::Mat& right, int width = kWidth,
+                       int height = kHeight) {
+    bdis_test::blurredNoisePair(static_cast<uint64_t>(seed) + 1, kShift, width, height, 1.5, left, right);
+  }
+
+  void writePair(const std::string& left_path, const std::string& right_path, int seed = 0) {
+    cv::Mat l, r;
+    makePair(seed, l, r);
+    ASSERT_TRUE(cv::imwrite(left_path, l));
+    ASSERT_TRUE(cv::imwrite(right_path, r));
+  }
+
+  // Exits normally (no signal), non-zero, and mentions `needle`.
+  void expectFailure(const RunResult& r, const std::string& needle) {
+    ASSERT_TRUE(r.exited()) << "terminated by a signal, status " << r.status;
+    EXPECT_NE(r.code(), 0);
+    EXPECT_NE(r.err.find(needle), std::string::npos)
+        << "stderr lacks '" << needle << "':\n" << r.err;
+  }
+};
+
+double interiorMedian(const cv::Mat& disparity) {
+  std::vector<float> v;
+  const int m = 16;
+  for (int y = m; y < disparity.rows - m; ++y) {
+    for (int x = m + kShift; x < disparity.cols - m; ++x) {
+      const float d = disparity.at<float>(y, x);
+      if (d >= 0.f) v.push_back(d);
+    }
+  }
+  if (v.empty()) return -1;
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+TEST_F(BdisMatchTest, Help) {
+  const RunResult r = run({"--help"});
+  ASSERT_TRUE(r.exited());
+  EXPECT_EQ(r.code(), 0);
+  EXPECT_NE(r.out.find("usage: bdis_match"), std::string::npos);
+  EXPECT_NE(r.out.find("65535"), std::string::npos);  // confidence encoding documented
+  EXPECT_NE(r.out.find("--variance"), std::string::npos);
+}
+
+TEST_F(BdisMatchTest, SinglePairKnownDisparity) {
+  writePair(path("l.png"), path("r.png"));
+  const RunResult r = run({path("l.png"), path("r.png"), path("d.png")});
+  ASSERT_TRUE(r.exited());
+  ASSERT_EQ(r.code(), 0) << r.err;
+
+  const cv::Mat raw = cv::imread(path("d.png"), cv::IMREAD_UNCHANGED);
+  ASSERT_FALSE(raw.empty());
+  EXPECT_EQ(raw.type(), CV_16UC1);
+  EXPECT_EQ(raw.size(), cv::Size(kWidth, kHeight));
+  const double med = interiorMedian(bdis::readDisparityPng(path("d.png")));
+  EXPECT_NEAR(med, kShift, 0.25);
+
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(r.out, m, std::regex(R"(time_ms=([0-9.eE+-]+))"))) << r.out;
+  EXPECT_GT(std::stod(m[1]), 0.0);
+}
+
+TEST_F(BdisMatchTest, ColourAndAlphaInputs) {
+  cv::Mat l, r, lc, rc;
+  makePair(3, l, r);
+  cv::cvtColor(l, lc, cv::COLOR_GRAY2BGRA);
+  cv::cvtColor(r, rc, cv::COLOR_GRAY2BGRA);
+  ASSERT_TRUE(cv::imwrite(path("l.png"), lc));
+  ASSERT_TRUE(cv::imwrite(path("r.png"), rc));
+  const RunResult res = run({path("l.png"), path("r.png"), path("d.png")});
+  ASSERT_TRUE(res.exited());
+  ASSERT_EQ(res.code(), 0) << res.err;
+  EXPECT_NEAR(interiorMedian(bdis::readDisparityPng(path("d.png"))), kShift, 0.25);
+}
+
+TEST_F(BdisMatchTest, ConfidenceAndVariance) {
+  writePair(path("l.png"), path("r.png"));
+  const RunResult r = run({path("l.png"), path("r.png"), path("d.png"), "--preset", "fast",
+                           "--confidence", path("c.png"), "--variance", path("v.png")});
+  ASSERT_TRUE(r.exited());
+  ASSERT_EQ(r.code(), 0) << r.err;
+  const cv::Mat d = cv::imread(path("d.png"), cv::IMREAD_UNCHANGED);
+  const cv::Mat c = cv::imread(path("c.png"), cv::IMREAD_UNCHANGED);
+  const cv::Mat v = cv::imread(path("v.png"), cv::IMREAD_UNCHANGED);
+  for (const cv::Mat* m : {&d, &c, &v}) {
+    ASSERT_FALSE(m->empty());
+    EXPECT_EQ(m->type(), CV_16UC1);
+    EXPECT_EQ(m->size(), cv::Size(kWidth, kHeight));
+  }
+  // Both maps are 0 exactly where there is no estimate (and confidence / variance > 0 elsewhere).
+  int mismatches = 0;
+  for (int y = 0; y < d.rows; ++y) {
+    for (int x = 0; x < d.cols; ++x) {
+      const bool est = d.at<uint16_t>(y, x) > 0;
+      mismatches += (v.at<uint16_t>(y, x) > 0) != est;
+      mismatches += est && c.at<uint16_t>(y, x) == 0;
+      mismatches += !est && c.at<uint16_t>(y, x) != 0;
+    }
+  }
+  EXPECT_EQ(mismatches, 0);
+  EXPECT_GT(cv::countNonZero(d), d.total() / 2);
+}
+
+TEST_F(BdisMatchTest, DirectoryMode) {
+  const std::string L = path("left"), R = path("right"), O = path("out/disp"), C = path("conf");
+  fs::create_directories(L);
+  fs::create_directories(R);
+  for (int i = 0; i < 3; ++i) {
+    const std::string name = "00000" + std::to_string(i) + ".png";
+    writePair(L + "/" + name, R + "/" + name, i);
+  }
+  writePair(L + "/only_left.png", path("unused.png"), 9);  // not in both: ignored
+  const RunResult r = run({"--left-dir", L, "--right-dir", R, "--out-dir", O, "--preset", "fast",
+                           "--confidence-dir", C});
+  ASSERT_TRUE(r.exited());
+  ASSERT_EQ(r.code(), 0) << r.err;
+  size_t written = 0;
+  for (const auto& e : fs::directory_iterator(O)) {
+    ++written;
+    EXPECT_NEAR(interiorMedian(bdis::readDisparityPng(e.path().string())), kShift, 0.25)
+        << e.path();
+  }
+  EXPECT_EQ(written, 3u);
+  EXPECT_TRUE(fs::exists(C + "/000002.png"));
+  EXPECT_FALSE(fs::exists(O + "/only_left.png"));
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(
+      r.out, m,
+      std::regex(R"(frames=3 failed=0 median_ms=([0-9.]+) mean_density=([0-9.]+) out_dir=(\S+))")))
+      << r.out;
+  EXPECT_GT(std::stod(m[1]), 0.0);
+  EXPECT_GT(std::stod(m[2]), 0.5);
+  EXPECT_LE(std::stod(m[2]), 1.0);
+  EXPECT_EQ(m[3].str(), O);
+}
+
+TEST_F(BdisMatchTest, DirectoryModeSkipsFailedFrame) {
+  const std::string L = path("left"), R = path("right"), O = path("out");
+  fs::create_directories(L);
+  fs::create_directories(R);
+  writePair(L + "/a.png", R + "/a.png", 1);
+  writePair(L + "/c.png", R + "/c.png", 2);
+  cv::Mat l, r;
+  makePair(4, l, r);
+  ASSERT_TRUE(cv::imwrite(L + "/b.png", l));
+  ASSERT_TRUE(cv::imwrite(R + "/b.png", r(cv::Rect(0, 0, kWidth - 8, kHeight))));
+  const RunResult res = run({"--left-dir", L, "--right-dir", R, "--out-dir", O, "--preset", "fast"});
+  expectFailure(res, "b.png");
+  EXPECT_EQ(res.code(), 1);
+  EXPECT_NE(res.out.find("frames=2 failed=1"), std::string::npos) << res.out;
+  EXPECT_TRUE(fs::exists(O + "/a.png"));
+  EXPECT_TRUE(fs::exists(O + "/c.png"));
+  EXPECT_FALSE(fs::exists(O + "/b.png"));
+}
+
+// Every kind of frame a replay can hold, in one directory: the bad ones fail
+// with their reason, the degenerate ones succeed with no estimate, and the good
+// frames after them come out right.
+TEST_F(BdisMatchTest, DirectoryModeBadAndDegenerateFrames) {
+  const std::string L = path("left"), R = path("right"), O = path("out");
+  fs::create_directories(L);
+  fs::create_directories(R);
+  cv::Mat l, r;
+  makePair(1, l, r);
+  auto write = [&](const std::string& name, const cv::Mat& left, const cv::Mat& right) {
+    ASSERT_TRUE(cv::imwrite(L + "/" + name, left)) << name;
+    ASSERT_TRUE(cv::imwrite(R + "/" + name, right)) << name;
+  };
+  const cv::Mat row(1, kWidth, CV_8UC1, cv::Scalar(100)), column(kHeight, 1, CV_8UC1, cv::Scalar(100));
+  cv::Mat lf, rf;
+  l.convertTo(lf, CV_32FC1);
+  r.convertTo(rf, CV_32FC1);
+  write("a_row.png", row, row);
+  write("b_column.png", column, column);
+  write("c_float.tiff", lf, rf);
+  write("d_black.png", cv::Mat::zeros(kHeight, kWidth, CV_8UC1), cv::Mat::zeros(kHeight, kWidth, CV_8UC1));
+  write("e_saturated.png", cv::Mat(kHeight, kWidth, CV_8UC1, cv::Scalar(255)),
+        cv::Mat(kHeight, kWidth, CV_8UC1, cv::Scalar(255)));
+  write("f_good.png", l, r);
+  const RunResult res = run({"--left-dir", L, "--right-dir", R, "--out-dir", O});
+  expectFailure(res, "a_row.png failed");
+  EXPECT_EQ(res.code(), 1);
+  for (const char* needle : {"160x1", "1x128", "at least 32", "c_float.tiff failed", "32FC1", "8-bit"}) {
+    EXPECT_NE(res.err.find(needle), std::string::npos) << "stderr lacks '" << needle << "':\n" << res.err;
+  }
+  EXPECT_NE(res.out.find("frames=3 failed=3"), std::string::npos) << res.out;
+  for (const char* name : {"a_row.png", "b_column.png", "c_float.png"}) EXPECT_FALSE(fs::exists(O + "/" + name));
+  for (const char* name : {"d_black.png", "e_saturated.png"}) {
+    const cv::Mat d = bdis::readDisparityPng(O + "/" + name);
+    ASSERT_EQ(d.size(), cv::Size(kWidth, kHeight)) << name;
+    EXPECT_EQ(cv::countNonZero(d >= 0.f), 0) << name << ": a flat frame got disparities";
+  }
+  EXPECT_NEAR(interiorMedian(bdis::readDisparityPng(O + "/f_good.png")), kShift, 0.25);
+}
+
+TEST_F(BdisMatchTest, MissingFile) {
+  writePair(path("l.png"), path("r.png"));
+  expectFailure(run({path("l.png"), path("nope.png"), path("d.png")}), "nope.png");
+  expectFailure(run({path("l.png"), path("nope.png"), path("d.png")}), "no such file");
+  EXPECT_FALSE(fs::exists(path("d.png")));
+}
+
+TEST_F(BdisMatchTest, UnreadableImage) {
+  writePair(path("l.png"), path("r.png"));
+  std::ofstream(path("junk.png")) << "not an image";
+  expectFailure(run({path("junk.png"), path("r.png"), path("d.png")}), "not a readable image");
+}
+
+TEST_F(BdisMatchTest, MismatchedSizes) {
+  cv::Mat l, r;
+  makePair(0, l, r);
+  ASSERT_TRUE(cv::imwrite(path("l.png"), l));
+  ASSERT_TRUE(cv::imwrite(path("r.png"), r(cv::Rect(0, 0, kWidth - 10, kHeight))));
+  const RunResult res = run({path("l.png"), path("r.png"), path("d.png")});
+  expectFailure(res, "equal sizes");
+  EXPECT_NE(res.err.find(path("l.png")), std::string::npos) << res.err;  // prefixed with names
+}
+
+TEST_F(BdisMatchTest, SixteenBitInput) {
+  cv::Mat l, r, l16, r16;
+  makePair(0, l, r);
+  l.convertTo(l16, CV_16UC1, 256);
+  r.convertTo(r16, CV_16UC1, 256);
+  ASSERT_TRUE(cv::imwrite(path("l.png"), l16));
+  ASSERT_TRUE(cv::imwrite(path("r.png"), r16));
+  const RunResult res = run({path("l.png"), path("r.png"), path("d.png")});
+  expectFailure(res, "8-bit");
+  EXPECT_NE(res.err.find(path("l.png")), std::string::npos) << res.err;
+}
+
+TEST_F(BdisMatchTest, UnknownPreset) {
+  writePair(path("l.png"), path("r.png"));
+  expectFailure(run({path("l.png"), path("r.png"), path("d.png"), "--preset", "turbo"}), "turbo");
+}
+
+TEST_F(BdisMatchTest, BadSet) {
+  writePair(path("l.png"), path("r.png"));
+  const std::string l = path("l.png"), r = path("r.png"), d = path("d.png");
+  expectFailure(run({l, r, d, "--set", "no_such_param=1"}), "no_such_param");
+  expectFailure(run({l, r, d, "--set", "iterations=abc"}), "iterations");
+  expectFailure(run({l, r, d, "--set", "iterations=nan"}), "out of range");  // NaN: no range test passes
+  expectFailure(run({l, r, d, "--set", "iterations"}), "NAME=VALUE");
+  expectFailure(run({l, r, d, "--set"}), "--set needs a value");
+}
+
+TEST_F(BdisMatchTest, BadParamsFile) {
+  writePair(path("l.png"), path("r.png"));
+  const std::string l = path("l.png"), r = path("r.png"), d = path("d.png");
+  std::ofstream(path("bad.yaml")) << "%YAML:1.0\nno_such_param: 3\n";
+  expectFailure(run({l, r, d, "--params", path("bad.yaml")}), "no_such_param");
+  expectFailure(run({l, r, d, "--params", path("missing.yaml")}), "missing.yaml");
+  std::ofstream(path("garbage.yaml")) << "{{{ : : not yaml\n";
+  const RunResult g = run({l, r, d, "--params", path("garbage.yaml")});
+  expectFailure(g, "garbage.yaml");
+  EXPECT_EQ(std::count(g.err.begin(), g.err.end(), '\n'), 1) << g.err;  // one line
+  EXPECT_FALSE(fs::exists(d));
+}
+
+TEST_F(BdisMatchTest, UnwritableOutput) {
+  writePair(path("l.png"), path("r.png"));
+  const std::string l = path("l.png"), r = path("r.png");
+  expectFailure(run({l, r, path("no_dir/d.png")}), "does not exist");
+  // A regular file where a directory is expected (fails even for root).
+  expectFailure(run({l, r, path("l.png/d.png")}), "not a directory");
+  expectFailure(run({l, r, path("d.png"), "--confidence", path("no_dir/c.png")}), "no_dir");
+  expectFailure(run({l, r, path("d.jpg")}), ".png");
+  const auto before = fs::last_write_time(l);
+  expectFailure(run({l, r, l}), "same path");  // would overwrite an input
+  EXPECT_EQ(fs::last_write_time(l), before);
+  fs::create_directories(path("left"));
+  fs::create_directories(path("right"));
+  writePair(path("left/a.png"), path("right/a.png"));
+  expectFailure(run({"--left-dir", path("left"), "--right-dir", path("right"), "--out-dir",
+                     path("l.png/out")}),
+                "cannot create output directory");
+}
+
+TEST_F(BdisMatchTest, BadCommandLine) {
+  const RunResult none = run({});
+  expectFailure(none, "expected LEFT RIGHT OUT.png");
+  EXPECT_EQ(none.code(), 2);
+  expectFailure(run({"a.png", "b.png", "c.png", "--bogus"}), "unknown option --bogus");
+  expectFailure(run({"--left-dir", "x", "--out-dir", "y"}), "--right-dir");
+}
+
+}  // namespace
