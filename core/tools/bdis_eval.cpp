@@ -17,6 +17,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include "bdis_stereo/error_analysis.hpp"
 #include "bdis_stereo/evaluation.hpp"
 #include "bdis_stereo/matcher.hpp"
 #include "tool_common.hpp"
@@ -31,28 +32,42 @@ constexpr const char* kUsage = R"(usage: bdis_eval SEQUENCE_DIR [SEQUENCE_DIR ..
 Scores each sequence (left/, right/, gt_disparity/) for this matcher and, in the
 same run, OpenCV DIS fast, DIS medium and SGBM. Single-threaded; per-method time
 is the median over frames, each method warmed up once on the first frame.
+Besides the summary table it prints, per sequence and method:
+  - the scorable pixels split by what the ground truth says (out of the right
+    view, occluded in it, dark, near a depth edge, the rest): share, density
+    and bad2 of each;
+  - for methods with a confidence (bdis; predictions with conf_ files): its
+    sparsification area against the oracle's, bad2 of the 25 % and 50 % most
+    confident estimates, bad2 per confidence decile, and the density and bad2
+    left by confidence thresholds;
+  - with compute_variance: the share of errors within 1 and 2 sigma;
+  - for sequences without gt_disparity/: density over the valid pixels and
+    the outliers in the strips along the rectification border.
 
 options:
   --preset NAME        fast | balanced (default) | accurate
   --params FILE.yaml   parameter file on top of the preset
   --set NAME=VALUE     override one matcher parameter (repeatable)
   --methods LIST       comma-separated subset of bdis,dis_fast,dis_medium,sgbm (default: all)
-  --frames N           use at most N frames per sequence
+  --frames N           use at most N (>= 1) frames per sequence
   --json FILE          also write the results as JSON
   --dump-dir DIR       write every disparity as DIR/<sequence>/<method>/<frame>.png (16-bit, d*256)
   --predictions DIR    score disparities computed elsewhere (DIR/<frame>.png, 16-bit, d*256,
                        0 = none; e.g. recorded from the nodelet) as method 'predictions'; one
                        sequence only; frames without a file are skipped for every method;
-                       other methods run only when --methods names them
-                       and bdis confidence as conf_<frame>.png (16-bit, c*65535)
+                       other methods run only when --methods names them; a confidence
+                       DIR/conf_<frame>.png (16-bit, c*65535; what --dump-dir writes) is
+                       scored with it
 )";
 
 /// A disparity method under test: fills CV_32FC1 disparity, negative = none,
-/// and its confidence in [0, 1] where the method has one (else leaves it empty).
+/// and its confidence in [0, 1] and variance (px^2) where the method has them
+/// (else they are empty).
 struct Method {
   std::string name;
   std::function<void(const cv::Mat& left, const cv::Mat& right, cv::Mat& disparity)> run;
   std::function<cv::Mat()> confidence = [] { return cv::Mat(); };
+  std::function<cv::Mat()> variance = [] { return cv::Mat(); };
 };
 
 Method makeBdis(const MatcherParams& params) {
@@ -63,7 +78,7 @@ Method makeBdis(const MatcherParams& params) {
             matcher->compute(l, r, *result);
             d = result->disparity;
           },
-          [result] { return result->confidence; }};
+          [result] { return result->confidence; }, [result] { return result->variance; }};
 }
 
 void toGrey(const cv::Mat& image, cv::Mat& grey) {
@@ -109,19 +124,41 @@ Method makeSgbm() {
           }};
 }
 
-// Disparities computed elsewhere, one 16-bit PNG per frame name.
+// Disparities computed elsewhere, one 16-bit PNG per frame name, and their
+// confidence where a conf_<frame>.png (16-bit, c * 65535) is there too.
 Method makePredictions(const std::string& dir, const std::string* const* current_name) {
-  return {"predictions", [dir, current_name](const cv::Mat&, const cv::Mat&, cv::Mat& d) {
-            d = readDisparityPng((std::filesystem::path(dir) / **current_name).string());
-          }};
+  auto confidence = std::make_shared<cv::Mat>();
+  return {"predictions",
+          [dir, current_name, confidence](const cv::Mat&, const cv::Mat&, cv::Mat& d) {
+            const std::filesystem::path root(dir);
+            d = readDisparityPng((root / **current_name).string());
+            const std::filesystem::path conf = root / ("conf_" + **current_name);
+            confidence->release();
+            if (!std::filesystem::exists(conf)) return;
+            const cv::Mat raw = cv::imread(conf.string(), cv::IMREAD_UNCHANGED);
+            if (raw.type() != CV_16UC1 || raw.size() != d.size()) {
+              throw std::runtime_error(conf.string() + " is not a 16-bit confidence of the disparity's size");
+            }
+            raw.convertTo(*confidence, CV_32FC1, 1.0 / 65535.0);
+          },
+          [confidence] { return *confidence; }};
 }
 
 struct Row {
   std::string sequence, method;
   size_t frames = 0;
   double median_ms = 0;
+  bool has_ground_truth = true;
   DisparityScore score;
+  RegionScore regions;
+  EstimateSamples samples;  ///< per estimate: confidence, error, sigma
+  bool has_confidence = false, has_variance = false;
+  // Without ground truth:
+  double valid_pixels_density_sum = 0;
+  BorderStripScore border;
 };
+
+const std::vector<float> kConfidenceThresholds = {0.f, 0.05f, 0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f};
 
 std::vector<std::string> split(const std::string& s, char sep) {
   std::vector<std::string> out;
@@ -130,62 +167,295 @@ std::vector<std::string> split(const std::string& s, char sep) {
   return out;
 }
 
-int run(int argc, char** argv) {
+struct Options {
   std::vector<std::string> sequences;
   std::string preset = "balanced", params_file, json_path, dump_dir, predictions_dir;
   bool methods_given = false;
   std::vector<std::string> overrides;
   std::vector<std::string> method_names = {"bdis", "dis_fast", "dis_medium", "sgbm"};
-  size_t max_frames = 0;
+  size_t max_frames = 0;  ///< 0: every frame
+  bool help = false;
+};
+
+Options parseOptions(int argc, char** argv) {
+  Options o;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() { return optionValue(i, argc, argv); };
     if (a == "-h" || a == "--help") {
-      std::cout << kUsage;
-      return 0;
+      o.help = true;
+      return o;
     } else if (a == "--preset") {
-      preset = value();
+      o.preset = value();
     } else if (a == "--params") {
-      params_file = value();
+      o.params_file = value();
     } else if (a == "--set") {
-      overrides.push_back(value());
+      o.overrides.push_back(value());
     } else if (a == "--methods") {
-      method_names = split(value(), ',');
-      methods_given = true;
+      o.method_names = split(value(), ',');
+      o.methods_given = true;
+      if (o.method_names.empty()) throw UsageError("--methods needs at least one method");
     } else if (a == "--frames") {
-      max_frames = static_cast<size_t>(std::stoul(value()));
+      const long long n = parseInteger("--frames", value());
+      if (n < 1) throw UsageError("--frames needs a whole number >= 1, got " + std::to_string(n));
+      o.max_frames = static_cast<size_t>(n);
     } else if (a == "--dump-dir") {
-      dump_dir = value();
+      o.dump_dir = value();
     } else if (a == "--predictions") {
-      predictions_dir = value();
+      o.predictions_dir = value();
     } else if (a == "--json") {
-      json_path = value();
+      o.json_path = value();
     } else if (!a.empty() && a[0] == '-') {
       throw UsageError("unknown option " + a);
     } else {
-      sequences.push_back(a);
+      o.sequences.push_back(a);
     }
   }
-  if (sequences.empty()) throw UsageError(std::string("no sequence given\n") + kUsage);
-  if (!predictions_dir.empty()) {
-    if (sequences.size() != 1) throw UsageError("--predictions scores one sequence");
-    if (!std::filesystem::is_directory(predictions_dir))
-      throw std::runtime_error("--predictions " + predictions_dir + " is not a directory");
-    if (!methods_given) method_names.clear();
+  if (o.sequences.empty()) throw UsageError(std::string("no sequence given\n") + kUsage);
+  if (!o.predictions_dir.empty()) {
+    if (o.sequences.size() != 1) throw UsageError("--predictions scores one sequence");
+    if (!std::filesystem::is_directory(o.predictions_dir))
+      throw std::runtime_error("--predictions " + o.predictions_dir + " is not a directory");
+    if (!o.methods_given) o.method_names.clear();
   }
-  MatcherParams params = resolveParams(preset, params_file);
-  for (const std::string& o : overrides) params = applyOverride(params, o);
+  // Fail before the evaluation, not after it.
+  if (!o.json_path.empty()) checkWritableFile(o.json_path);
+  if (!o.dump_dir.empty()) ensureWritableDir(o.dump_dir);
+  return o;
+}
+
+void dumpMaps(const std::filesystem::path& dir, const std::string& name, const cv::Mat& disparity,
+              const cv::Mat& confidence) {
+  std::filesystem::create_directories(dir);
+  writeDisparityPng((dir / name).string(), disparity);
+  if (confidence.empty()) return;
+  cv::Mat conf16;
+  confidence.convertTo(conf16, CV_16UC1, 65535.0);
+  writeImage((dir / ("conf_" + name)).string(), conf16);
+}
+
+/// Every method on the frames of one sequence; one row per method.
+std::vector<Row> scoreSequence(const std::string& root, std::vector<Method>& methods, const Options& o,
+                               const std::string*& frame_name) {
+  const StereoSequence seq = StereoSequence::open(root);
+  const size_t n = o.max_frames ? std::min(o.max_frames, seq.names.size()) : seq.names.size();
+  std::vector<Row> rows(methods.size());
+  std::vector<std::vector<double>> times(methods.size());
+  ProgressBar bar(n, root);
+  cv::Mat disparity;
+  size_t scored = 0;
+  for (size_t f = 0; f < n; ++f) {
+    frame_name = &seq.names[f];
+    if (!o.predictions_dir.empty() &&
+        !std::filesystem::exists(std::filesystem::path(o.predictions_dir) / seq.names[f])) {
+      bar.update(f + 1);
+      continue;
+    }
+    ++scored;
+    const cv::Mat left = seq.left(f), right = seq.right(f);
+    const cv::Mat gt = seq.has_ground_truth ? seq.groundTruth(f) : cv::Mat();
+    const cv::Mat labels = seq.has_ground_truth ? classifyPixels(gt, left) : cv::Mat();
+    for (size_t m = 0; m < methods.size(); ++m) {
+      if (scored == 1) methods[m].run(left, right, disparity);  // untimed warm-up
+      const double t0 = nowMs();
+      methods[m].run(left, right, disparity);
+      times[m].push_back(nowMs() - t0);
+      Row& row = rows[m];
+      const cv::Mat confidence = methods[m].confidence(), variance = methods[m].variance();
+      row.has_confidence = !confidence.empty();
+      row.has_variance = !variance.empty();
+      if (seq.has_ground_truth) {
+        row.score.add(scoreDisparity(disparity, gt, left));
+        row.regions.add(scoreRegions(disparity, gt, labels));
+        row.samples.add(disparity, gt, labels, confidence, variance);
+      } else {
+        row.valid_pixels_density_sum += validPixelDensity(disparity, left);
+        row.border.add(scoreBorderStrips(disparity, left));
+      }
+      if (!o.dump_dir.empty()) {
+        dumpMaps(std::filesystem::path(o.dump_dir) / std::filesystem::path(root).filename() / methods[m].name,
+                 seq.names[f], disparity, confidence);
+      }
+    }
+    bar.update(f + 1);
+  }
+  bar.finish();
+  if (scored == 0) throw std::runtime_error("no frame of " + root + " has a file in " + o.predictions_dir);
+  if (scored < n) std::printf("%s: %zu of %zu frames have predictions; scored those\n", root.c_str(), scored, n);
+  std::string name = seq.root.substr(seq.root.find_last_of('/') + 1);
+  if (name.empty()) name = seq.root;
+  for (size_t m = 0; m < methods.size(); ++m) {
+    rows[m].sequence = name;
+    rows[m].method = methods[m].name;
+    rows[m].frames = scored;
+    rows[m].median_ms = median(times[m]);
+    rows[m].has_ground_truth = seq.has_ground_truth;
+  }
+  return rows;
+}
+
+void printSummary(const std::vector<Row>& rows) {
+  std::printf("%-28s %-11s %7s %9s %8s %8s %8s %8s %13s\n", "sequence", "method", "frames", "ms/frame", "density",
+              "median", "mean", "bad2", "miss_or_bad2");
+  for (const Row& r : rows) {
+    if (!r.has_ground_truth) continue;
+    char ms[32] = "        -";  // predictions were computed elsewhere: no time here
+    if (r.method != "predictions") std::snprintf(ms, sizeof ms, "%9.2f", r.median_ms);
+    std::printf("%-28s %-11s %7zu %s %8.3f %8.3f %8.3f %7.1f%% %12.1f%%\n", r.sequence.c_str(), r.method.c_str(),
+                r.frames, ms, r.score.density(), r.score.medianError(), r.score.meanError(), 100 * r.score.bad2Rate(),
+                100 * r.score.missOrBad2Rate());
+  }
+}
+
+void printRegions(const std::vector<Row>& rows) {
+  std::printf("\nwhere the scorable pixels lie (by ground truth): share of them, density, bad2\n");
+  std::printf("%-28s %-11s", "sequence", "method");
+  for (int k = 0; k < kPixelRegions; ++k) std::printf(" %26s", regionName(static_cast<PixelRegion>(k)));
+  std::printf("\n");
+  for (const Row& r : rows) {
+    if (!r.has_ground_truth) continue;
+    std::printf("%-28s %-11s", r.sequence.c_str(), r.method.c_str());
+    for (int k = 0; k < kPixelRegions; ++k) {
+      const auto region = static_cast<PixelRegion>(k);
+      const RegionScore::Counts& c = r.regions[region];
+      std::printf("  %5.1f%% %6.3f %6.1f%%    ", 100 * r.regions.share(region), c.density(), 100 * c.bad2Rate());
+    }
+    std::printf("\n");
+  }
+}
+
+void printConfidence(const std::vector<Row>& rows) {
+  bool any = false;
+  for (const Row& r : rows) any = any || (r.has_ground_truth && r.has_confidence);
+  if (!any) return;
+  std::printf("\nconfidence as a ranking of the errors: sparsification area (bad2 of the most confident\n"
+              "fraction, f = 0.05..1) against the oracle's; bad2 of the 25 %% / 50 %% most confident;\n"
+              "bad2 per confidence decile, least confident first\n");
+  std::printf("%-28s %-11s %7s %7s %6s %7s %7s  %s\n", "sequence", "method", "area", "oracle", "ratio", "top25",
+              "top50", "deciles (bad2 %)");
+  for (const Row& r : rows) {
+    if (!r.has_ground_truth || !r.has_confidence) continue;
+    const Sparsification s = sparsify(r.samples);
+    std::printf("%-28s %-11s %7.4f %7.4f %6.2f %6.1f%% %6.1f%% ", r.sequence.c_str(), r.method.c_str(), s.area,
+                s.oracle_area, s.ratio(), 100 * s.bad2_top25, 100 * s.bad2_top50);
+    for (double d : s.decile_bad2) std::printf(" %4.1f", 100 * d);
+    std::printf("%s\n", s.monotone() ? "  (falling)" : "  (not monotone)");
+  }
+  std::printf("\nwhat a confidence threshold leaves: density / bad2 of the estimates with confidence >= t\n");
+  std::printf("%-28s %-11s", "sequence", "method");
+  for (float t : kConfidenceThresholds) std::printf("      t=%-4.2f  ", t);
+  std::printf("\n");
+  for (const Row& r : rows) {
+    if (!r.has_ground_truth || !r.has_confidence) continue;
+    std::printf("%-28s %-11s", r.sequence.c_str(), r.method.c_str());
+    for (const ThresholdRow& t : confidenceThresholds(r.samples, kConfidenceThresholds)) {
+      std::printf("  %5.3f/%5.1f%%", t.density, 100 * t.bad2);
+    }
+    std::printf("\n");
+  }
+}
+
+void printVariance(const std::vector<Row>& rows) {
+  bool any = false;
+  for (const Row& r : rows) any = any || (r.has_ground_truth && r.has_variance);
+  if (!any) return;
+  std::printf("\nvariance as a standard deviation of the error (a Gaussian: 68 %% / 95 %% / 0.674)\n");
+  std::printf("%-28s %-11s %9s %9s %14s\n", "sequence", "method", "within 1s", "within 2s", "median |e|/s");
+  for (const Row& r : rows) {
+    if (!r.has_ground_truth || !r.has_variance) continue;
+    const VarianceCalibration c = calibrateVariance(r.samples);
+    std::printf("%-28s %-11s %8.1f%% %8.1f%% %14.3f\n", r.sequence.c_str(), r.method.c_str(), 100 * c.within1,
+                100 * c.within2, c.median_ratio);
+  }
+}
+
+void printWithoutGroundTruth(const std::vector<Row>& rows) {
+  bool any = false;
+  for (const Row& r : rows) any = any || !r.has_ground_truth;
+  if (!any) return;
+  std::printf("\nsequences without ground truth: density over the valid pixels; estimates within 12 px of\n"
+              "either end of a row's valid span more than 3 px from the median 12-40 px further in\n");
+  std::printf("%-28s %-11s %7s %9s %8s %16s %9s\n", "sequence", "method", "frames", "ms/frame", "density",
+              "border estimates", "outliers");
+  for (const Row& r : rows) {
+    if (r.has_ground_truth) continue;
+    std::printf("%-28s %-11s %7zu %9.2f %8.3f %16.0f %8.1f%%\n", r.sequence.c_str(), r.method.c_str(), r.frames,
+                r.median_ms, r.frames ? r.valid_pixels_density_sum / static_cast<double>(r.frames) : 0.0,
+                r.border.estimates, 100 * r.border.rate());
+  }
+}
+
+void writeJson(const std::string& path, const MatcherParams& params, const std::vector<Row>& rows) {
+  std::ofstream js(path);
+  if (!js) throw std::runtime_error("cannot write " + path);
+  js << std::setprecision(6) << "{\n  \"params\": {";
+  bool first = true;
+  for (const ParamField& f : paramFields()) {
+    js << (first ? "" : ", ") << "\"" << f.name << "\": " << f.get(params);
+    first = false;
+  }
+  js << "},\n  \"results\": [\n";
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const Row& r = rows[i];
+    js << "    {\"sequence\": \"" << r.sequence << "\", \"method\": \"" << r.method << "\", \"frames\": " << r.frames
+       << ", \"median_ms\": " << r.median_ms << ", \"ground_truth\": " << (r.has_ground_truth ? "true" : "false");
+    if (r.has_ground_truth) {
+      js << ", \"density\": " << r.score.density() << ", \"median_error\": " << r.score.medianError()
+         << ", \"mean_error\": " << r.score.meanError() << ", \"bad2\": " << r.score.bad2Rate()
+         << ", \"miss_or_bad2\": " << r.score.missOrBad2Rate() << ",\n     \"regions\": {";
+      for (int k = 0; k < kPixelRegions; ++k) {
+        const auto region = static_cast<PixelRegion>(k);
+        js << (k ? ", " : "") << "\"" << regionName(region) << "\": {\"share\": " << r.regions.share(region)
+           << ", \"density\": " << r.regions[region].density() << ", \"bad2\": " << r.regions[region].bad2Rate() << "}";
+      }
+      js << "}";
+      if (r.has_confidence) {
+        const Sparsification s = sparsify(r.samples);
+        js << ",\n     \"confidence\": {\"sparsification_area\": " << s.area << ", \"oracle_area\": " << s.oracle_area
+           << ", \"ratio\": " << s.ratio() << ", \"bad2_top25\": " << s.bad2_top25 << ", \"bad2_top50\": "
+           << s.bad2_top50 << ", \"monotone\": " << (s.monotone() ? "true" : "false") << ", \"decile_bad2\": [";
+        for (size_t d = 0; d < s.decile_bad2.size(); ++d) js << (d ? ", " : "") << s.decile_bad2[d];
+        js << "], \"thresholds\": [";
+        const std::vector<ThresholdRow> t = confidenceThresholds(r.samples, kConfidenceThresholds);
+        for (size_t k = 0; k < t.size(); ++k) {
+          js << (k ? ", " : "") << "{\"threshold\": " << t[k].threshold << ", \"density\": " << t[k].density
+             << ", \"bad2\": " << t[k].bad2 << "}";
+        }
+        js << "]}";
+      }
+      if (r.has_variance) {
+        const VarianceCalibration c = calibrateVariance(r.samples);
+        js << ",\n     \"variance\": {\"within_1_sigma\": " << c.within1 << ", \"within_2_sigma\": " << c.within2
+           << ", \"median_error_over_sigma\": " << c.median_ratio << "}";
+      }
+    } else {
+      js << ", \"valid_pixel_density\": " << (r.frames ? r.valid_pixels_density_sum / static_cast<double>(r.frames) : 0.0)
+         << ", \"border_estimates\": " << r.border.estimates << ", \"border_outliers\": " << r.border.rate();
+    }
+    js << "}" << (i + 1 < rows.size() ? ",\n" : "\n");
+  }
+  js << "  ]\n}\n";
+}
+
+int run(int argc, char** argv) {
+  Options o = parseOptions(argc, argv);
+  if (o.help) {
+    std::cout << kUsage;
+    return 0;
+  }
+  MatcherParams params = resolveParams(o.preset, o.params_file);
+  for (const std::string& assignment : o.overrides) params = applyOverride(params, assignment);
   params.validate();
 
   cv::setNumThreads(1);  // every method single-threaded, as the matcher is
   std::vector<Method> methods;
   const std::string* frame_name = nullptr;  // the frame being scored, for makePredictions
-  if (!predictions_dir.empty()) methods.push_back(makePredictions(predictions_dir, &frame_name));
-  const auto listed = std::remove(method_names.begin(), method_names.end(), "predictions");
-  if (listed != method_names.end() && predictions_dir.empty())
+  if (!o.predictions_dir.empty()) methods.push_back(makePredictions(o.predictions_dir, &frame_name));
+  const auto listed = std::remove(o.method_names.begin(), o.method_names.end(), "predictions");
+  if (listed != o.method_names.end() && o.predictions_dir.empty())
     throw UsageError("method predictions needs --predictions DIR");
-  method_names.erase(listed, method_names.end());  // added above when the directory is given
-  for (const std::string& m : method_names) {
+  o.method_names.erase(listed, o.method_names.end());  // added above when the directory is given
+  for (const std::string& m : o.method_names) {
     if (m == "bdis") methods.push_back(makeBdis(params));
     else if (m == "dis_fast") methods.push_back(makeDis(m, cv::DISOpticalFlow::PRESET_FAST));
     else if (m == "dis_medium") methods.push_back(makeDis(m, cv::DISOpticalFlow::PRESET_MEDIUM));
@@ -194,88 +464,15 @@ int run(int argc, char** argv) {
   }
 
   std::vector<Row> rows;
-  for (const std::string& root : sequences) {
-    const StereoSequence seq = StereoSequence::open(root);
-    if (!seq.has_ground_truth) throw std::runtime_error("sequence " + root + " has no gt_disparity/");
-    const size_t n = max_frames ? std::min(max_frames, seq.names.size()) : seq.names.size();
-    std::vector<Row> seq_rows(methods.size());
-    std::vector<std::vector<double>> times(methods.size());
-    ProgressBar bar(n, root);
-    cv::Mat disparity;
-    size_t scored = 0;
-    for (size_t f = 0; f < n; ++f) {
-      frame_name = &seq.names[f];
-      if (!predictions_dir.empty() &&
-          !std::filesystem::exists(std::filesystem::path(predictions_dir) / seq.names[f])) {
-        bar.update(f + 1);
-        continue;
-      }
-      ++scored;
-      const cv::Mat left = seq.left(f), right = seq.right(f), gt = seq.groundTruth(f);
-      for (size_t m = 0; m < methods.size(); ++m) {
-        if (scored == 1) methods[m].run(left, right, disparity);  // untimed warm-up
-        const double t0 = nowMs();
-        methods[m].run(left, right, disparity);
-        times[m].push_back(nowMs() - t0);
-        seq_rows[m].score.add(scoreDisparity(disparity, gt, left));
-        if (!dump_dir.empty()) {
-          const std::filesystem::path dir =
-              std::filesystem::path(dump_dir) / std::filesystem::path(root).filename() / methods[m].name;
-          std::filesystem::create_directories(dir);
-          writeDisparityPng((dir / seq.names[f]).string(), disparity);
-          const cv::Mat conf = methods[m].confidence();
-          if (!conf.empty()) {
-            cv::Mat conf16;
-            conf.convertTo(conf16, CV_16UC1, 65535.0);
-            writeImage((dir / ("conf_" + seq.names[f])).string(), conf16);
-          }
-        }
-      }
-      bar.update(f + 1);
-    }
-    bar.finish();
-    if (scored == 0) throw std::runtime_error("no frame of " + root + " has a file in " + predictions_dir);
-    if (scored < n) std::printf("%s: %zu of %zu frames have predictions; scored those\n", root.c_str(), scored, n);
-    for (size_t m = 0; m < methods.size(); ++m) {
-      seq_rows[m].sequence = seq.root.substr(seq.root.find_last_of('/') + 1);
-      if (seq_rows[m].sequence.empty()) seq_rows[m].sequence = seq.root;
-      seq_rows[m].method = methods[m].name;
-      seq_rows[m].frames = scored;
-      seq_rows[m].median_ms = median(times[m]);
-      rows.push_back(std::move(seq_rows[m]));
-    }
+  for (const std::string& root : o.sequences) {
+    for (Row& r : scoreSequence(root, methods, o, frame_name)) rows.push_back(std::move(r));
   }
-
-  std::printf("%-28s %-11s %7s %9s %8s %8s %8s %8s %13s\n", "sequence", "method", "frames",
-              "ms/frame", "density", "median", "mean", "bad2", "miss_or_bad2");
-  for (const Row& r : rows) {
-    char ms[32] = "        -";  // predictions were computed elsewhere: no time here
-    if (r.method != "predictions") std::snprintf(ms, sizeof ms, "%9.2f", r.median_ms);
-    std::printf("%-28s %-11s %7zu %s %8.3f %8.3f %8.3f %7.1f%% %12.1f%%\n", r.sequence.c_str(),
-                r.method.c_str(), r.frames, ms, r.score.density(), r.score.medianError(),
-                r.score.meanError(), 100 * r.score.bad2Rate(), 100 * r.score.missOrBad2Rate());
-  }
-  if (!json_path.empty()) {
-    std::ofstream js(json_path);
-    if (!js) throw std::runtime_error("cannot write " + json_path);
-    js << std::setprecision(6) << "{\n  \"params\": {";
-    bool first = true;
-    for (const ParamField& f : paramFields()) {
-      js << (first ? "" : ", ") << "\"" << f.name << "\": " << f.get(params);
-      first = false;
-    }
-    js << "},\n  \"results\": [\n";
-    for (size_t i = 0; i < rows.size(); ++i) {
-      const Row& r = rows[i];
-      js << "    {\"sequence\": \"" << r.sequence << "\", \"method\": \"" << r.method
-         << "\", \"frames\": " << r.frames << ", \"median_ms\": " << r.median_ms
-         << ", \"density\": " << r.score.density() << ", \"median_error\": " << r.score.medianError()
-         << ", \"mean_error\": " << r.score.meanError() << ", \"bad2\": " << r.score.bad2Rate()
-         << ", \"miss_or_bad2\": " << r.score.missOrBad2Rate() << "}"
-         << (i + 1 < rows.size() ? ",\n" : "\n");
-    }
-    js << "  ]\n}\n";
-  }
+  printSummary(rows);
+  printRegions(rows);
+  printConfidence(rows);
+  printVariance(rows);
+  printWithoutGroundTruth(rows);
+  if (!o.json_path.empty()) writeJson(o.json_path, params, rows);
   return 0;
 }
 

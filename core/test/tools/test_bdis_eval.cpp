@@ -41,7 +41,7 @@ class BdisEvalTest : public bdis_test::ToolTest {
 
   static double jsonNumber(const std::string& json, const std::string& method, const std::string& key) {
     std::smatch m;
-    const std::regex re("\"method\": \"" + method + "\"[^}]*\"" + key + "\": ([0-9.eE+-]+)");
+    const std::regex re("\"method\": \"" + method + "\"[^}]*?\"" + key + "\": ([0-9.eE+-]+)");
     if (!std::regex_search(json, m, re)) return -1;
     return std::stod(m[1]);
   }
@@ -94,6 +94,58 @@ TEST_F(BdisEvalTest, PredictionErrors) {
   const RunResult no_dir = run({path("seq"), "--methods", "predictions"});
   EXPECT_EQ(no_dir.code(), 2);
   EXPECT_NE(no_dir.err.find("needs --predictions DIR"), std::string::npos) << no_dir.err;
+}
+
+TEST_F(BdisEvalTest, RegionsAndConfidenceOfPredictions) {
+  writeSequence();
+  // Frame 0: the left quarter 5 px off with confidence 0.1, the rest exact
+  // with confidence 0.9: the confidence ranks the errors perfectly.
+  cv::Mat d(kHeight, kWidth, CV_32FC1, cv::Scalar(kTrueDisparity));
+  d.colRange(0, kWidth / 4).setTo(kTrueDisparity + 5.f);
+  cv::Mat1w conf(kHeight, kWidth, static_cast<uint16_t>(0.9 * 65535));
+  conf.colRange(0, kWidth / 4).setTo(static_cast<uint16_t>(0.1 * 65535));
+  bdis::writeDisparityPng(path("pred/000000.png"), d);
+  ASSERT_TRUE(cv::imwrite(path("pred/conf_000000.png"), conf));
+  const RunResult r = run({path("seq"), "--predictions", path("pred"), "--json", path("r.json")});
+  ASSERT_EQ(r.code(), 0) << r.err;
+  const std::string json = readFile(path("r.json"));
+  // Constant ground truth 7 px: the first 7 columns match outside the right view.
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(json, m, std::regex("\"out_of_view\": \\{\"share\": ([0-9.e-]+)")));
+  EXPECT_NEAR(std::stod(m[1]), 7.0 / kWidth, 1e-6);
+  ASSERT_TRUE(std::regex_search(json, m, std::regex("\"ratio\": ([0-9.e-]+)")));
+  EXPECT_NEAR(std::stod(m[1]), 1.0, 1e-6);
+  ASSERT_TRUE(std::regex_search(json, m, std::regex("\"bad2_top50\": ([0-9.e-]+)")));
+  EXPECT_EQ(std::stod(m[1]), 0.0);
+  EXPECT_NE(r.out.find("sparsification"), std::string::npos) << r.out;
+}
+
+TEST_F(BdisEvalTest, SequenceWithoutGroundTruthReportsBorderStrips) {
+  writeSequence();
+  fs::remove_all(path("seq/gt_disparity"));
+  const RunResult r = run({path("seq"), "--methods", "dis_fast", "--json", path("r.json")});
+  ASSERT_EQ(r.code(), 0) << r.err;
+  EXPECT_NE(r.out.find("sequences without ground truth"), std::string::npos) << r.out;
+  const std::string json = readFile(path("r.json"));
+  EXPECT_NE(json.find("\"ground_truth\": false"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"border_outliers\""), std::string::npos) << json;
+}
+
+TEST_F(BdisEvalTest, BadOptionsFailBeforeTheEvaluation) {
+  writeSequence();
+  for (const char* frames : {"0", "-1", "2.5", "x"}) {
+    const RunResult r = run({path("seq"), "--frames", frames});
+    EXPECT_EQ(r.code(), 2) << frames;
+    EXPECT_NE(r.err.find("--frames"), std::string::npos) << r.err;
+  }
+  const RunResult no_methods = run({path("seq"), "--methods", ""});
+  EXPECT_EQ(no_methods.code(), 2);
+  EXPECT_NE(no_methods.err.find("--methods needs at least one method"), std::string::npos) << no_methods.err;
+  const RunResult bad_json = run({path("seq"), "--json", path("missing/dir/r.json")});
+  EXPECT_EQ(bad_json.code(), 1);
+  EXPECT_NE(bad_json.err.find("does not exist"), std::string::npos) << bad_json.err;
+  // Failed at once: no progress bar, nothing scored.
+  EXPECT_EQ(bad_json.err.find("3/3"), std::string::npos) << bad_json.err;
 }
 
 }  // namespace

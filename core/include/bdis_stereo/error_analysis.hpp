@@ -1,0 +1,121 @@
+// Where a disparity map is wrong and whether its confidence says so: scorable
+// pixels split into regions by what the ground truth says about them, the
+// confidence's sparsification curve against the oracle's, the calibration of
+// a variance, and, for sequences without ground truth, outliers in the strips
+// along the rectification border. Used by bdis_eval and the accuracy tests.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace bdis {
+
+/// The region of a scorable pixel; the first that applies, in this order.
+enum class PixelRegion : unsigned char {
+  OutOfView,  ///< its match x - d_gt lies left of the right image
+  Occluded,   ///< a nearer surface covers its match in the right view (GT z-buffer)
+  Dark,       ///< left grey level below RegionOptions::dark_grey
+  DepthEdge,  ///< within RegionOptions::edge_band_px of a jump in the ground truth
+  Rest,       ///< lit, visible, away from depth edges
+};
+constexpr int kPixelRegions = 5;
+/// "out_of_view", "occluded", "dark", "depth_edge", "rest".
+const char* regionName(PixelRegion region);
+
+struct RegionOptions {
+  double dark_grey = 30.0;         ///< grey levels (Rec. 601 luma of the left image)
+  float edge_jump_px = 2.f;        ///< a GT jump between 4-neighbours larger than this is a depth edge
+  int edge_band_px = 3;            ///< half-width of the band around a depth edge
+  float occlusion_margin_px = 1.f; ///< how much nearer the occluder must be
+};
+
+/// Label image (CV_8UC1): the PixelRegion of every scorable pixel (ground
+/// truth > 0, left image not black), kNotScorable elsewhere.
+constexpr unsigned char kNotScorable = 255;
+cv::Mat classifyPixels(const cv::Mat& gt, const cv::Mat& left, const RegionOptions& options = {});
+
+/// Share, density and bad2 per region, summed over frames.
+struct RegionScore {
+  struct Counts {
+    double scorable = 0, estimated = 0, bad2 = 0;
+    double density() const { return scorable > 0 ? estimated / scorable : 0.0; }
+    double bad2Rate() const { return estimated > 0 ? bad2 / estimated : 0.0; }
+  };
+  std::array<Counts, kPixelRegions> regions{};
+  double scorable() const;
+  double share(PixelRegion r) const;  ///< of all scorable pixels
+  const Counts& operator[](PixelRegion r) const { return regions[static_cast<size_t>(r)]; }
+  void add(const RegionScore& other);
+};
+
+/// `disparity` (CV_32FC1, negative = none) against `labels` from classifyPixels and `gt`.
+RegionScore scoreRegions(const cv::Mat& disparity, const cv::Mat& gt, const cv::Mat& labels);
+
+/// Every estimated scorable pixel's confidence, absolute error and (when a
+/// variance is given) standard deviation, pooled over frames.
+struct EstimateSamples {
+  std::vector<float> confidence, abs_error, sigma;
+  double scorable = 0;  ///< scorable pixels, estimated or not (for densities)
+  /// Adds a frame; `confidence` and `variance` may be empty (CV_32FC1 otherwise).
+  void add(const cv::Mat& disparity, const cv::Mat& gt, const cv::Mat& labels, const cv::Mat& confidence,
+           const cv::Mat& variance);
+  size_t size() const { return abs_error.size(); }
+};
+
+/// The confidence as a ranking of the errors. Estimates are sorted by
+/// confidence, most confident first; bad2 of the most confident fraction f
+/// is integrated over f from 0.05 to 1 (trapezoids at steps of 0.05); the
+/// oracle sorts by the true error instead.
+struct Sparsification {
+  double area = 0, oracle_area = 0;
+  double ratio() const { return oracle_area > 0 ? area / oracle_area : 0.0; }
+  double bad2_top25 = 0, bad2_top50 = 0;  ///< bad2 of the 25 % / 50 % most confident
+  /// bad2 of each tenth of the estimates, least confident first.
+  std::array<double, 10> decile_bad2{};
+  /// Whether bad2 falls (or stays) from each decile to the next more confident one.
+  bool monotone(double tolerance = 0.0) const;
+};
+Sparsification sparsify(const EstimateSamples& samples);
+
+/// What a confidence threshold leaves: density (of all scorable pixels) and
+/// bad2 of the estimates whose confidence is at least `threshold`.
+struct ThresholdRow {
+  float threshold;
+  double density, bad2;
+};
+std::vector<ThresholdRow> confidenceThresholds(const EstimateSamples& samples, const std::vector<float>& thresholds);
+
+/// How well a variance describes the errors, as a standard deviation should:
+/// the shares of |error| within 1 and 2 sigma (a Gaussian: 68 % and 95 %) and
+/// the median of |error| / sigma (a Gaussian: 0.674).
+struct VarianceCalibration {
+  double within1 = 0, within2 = 0, median_ratio = 0;
+  size_t samples = 0;
+};
+VarianceCalibration calibrateVariance(const EstimateSamples& samples);
+
+/// Sequences without ground truth: along the border of the rectified view.
+/// Per row, the estimates within `strip_px` of either end of the left
+/// image's valid (non-black) span, against the median of the estimates
+/// between `reference_from` and `reference_to` px in from that end; an
+/// estimate more than `tolerance_px` from it is an outlier. Rows whose
+/// reference holds no estimate are left out.
+struct BorderStripScore {
+  double estimates = 0, outliers = 0;
+  double rate() const { return estimates > 0 ? outliers / estimates : 0.0; }
+  void add(const BorderStripScore& o) {
+    estimates += o.estimates;
+    outliers += o.outliers;
+  }
+};
+BorderStripScore scoreBorderStrips(const cv::Mat& disparity, const cv::Mat& left, int strip_px = 12,
+                                   int reference_from = 12, int reference_to = 40, float tolerance_px = 3.f);
+
+/// Density over the left image's valid (non-black) pixels.
+double validPixelDensity(const cv::Mat& disparity, const cv::Mat& left);
+
+}  // namespace bdis

@@ -1,0 +1,167 @@
+// Regions, confidence ranking, variance calibration and border strips
+// (bdis_stereo/error_analysis.hpp) on constructed inputs whose answer is known.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "bdis_stereo/error_analysis.hpp"
+
+namespace {
+
+using bdis::EstimateSamples;
+using bdis::kNotScorable;
+using bdis::PixelRegion;
+
+uchar label(const cv::Mat& labels, int y, int x) { return labels.at<uchar>(y, x); }
+constexpr uchar code(PixelRegion r) { return static_cast<uchar>(r); }
+
+TEST(ErrorRegions, EachPixelInTheFirstRegionThatApplies) {
+  // One row, 40 px: background at 5 px, a near strip (columns 20-29) at 12 px.
+  // Right view: the strip covers right columns 8-17, which hide the
+  // background pixels whose matches fall there (left columns 13-19 at 5 px:
+  // x - 5 in 8..14, rounded).
+  const int w = 40;
+  cv::Mat gt(3, w, CV_32FC1, cv::Scalar(5.f));
+  gt.colRange(20, 30).setTo(12.f);
+  cv::Mat left(3, w, CV_8UC1, cv::Scalar(100));
+  left.at<uchar>(1, 35) = 10;          // dark
+  left.at<uchar>(1, 36) = 0;           // black: not scorable
+  gt.at<float>(1, 37) = 0.f;           // no ground truth: not scorable
+  bdis::RegionOptions options;
+  options.edge_band_px = 1;
+  const cv::Mat labels = bdis::classifyPixels(gt, left, options);
+  // x - d < 0: columns 0-4 at 5 px.
+  for (int x = 0; x < 5; ++x) EXPECT_EQ(label(labels, 1, x), code(PixelRegion::OutOfView)) << x;
+  // Hidden behind the strip in the right view.
+  for (int x = 14; x < 18; ++x) EXPECT_EQ(label(labels, 1, x), code(PixelRegion::Occluded)) << x;
+  // The strip's own pixels are seen: the edge band around its borders (1 px).
+  EXPECT_EQ(label(labels, 1, 20), code(PixelRegion::DepthEdge));
+  EXPECT_EQ(label(labels, 1, 29), code(PixelRegion::DepthEdge));
+  EXPECT_EQ(label(labels, 1, 30), code(PixelRegion::DepthEdge));
+  EXPECT_EQ(label(labels, 1, 25), code(PixelRegion::Rest));
+  EXPECT_EQ(label(labels, 1, 8), code(PixelRegion::Rest));
+  EXPECT_EQ(label(labels, 1, 35), code(PixelRegion::Dark));
+  EXPECT_EQ(label(labels, 1, 36), kNotScorable);
+  EXPECT_EQ(label(labels, 1, 37), kNotScorable);
+}
+
+TEST(ErrorRegions, ScoresPerRegion) {
+  const cv::Mat gt(1, 6, CV_32FC1, cv::Scalar(2.f));
+  cv::Mat labels = (cv::Mat_<uchar>(1, 6) << code(PixelRegion::OutOfView), code(PixelRegion::Rest),
+                    code(PixelRegion::Rest), code(PixelRegion::Rest), code(PixelRegion::Dark), kNotScorable);
+  const cv::Mat d = (cv::Mat_<float>(1, 6) << 7.f, 2.5f, 9.f, -1.f, -1.f, 8.f);
+  const bdis::RegionScore s = bdis::scoreRegions(d, gt, labels);
+  EXPECT_EQ(s.scorable(), 5);
+  EXPECT_DOUBLE_EQ(s.share(PixelRegion::Rest), 3.0 / 5.0);
+  EXPECT_DOUBLE_EQ(s[PixelRegion::Rest].density(), 2.0 / 3.0);
+  EXPECT_DOUBLE_EQ(s[PixelRegion::Rest].bad2Rate(), 0.5);
+  EXPECT_DOUBLE_EQ(s[PixelRegion::OutOfView].bad2Rate(), 1.0);
+  EXPECT_DOUBLE_EQ(s[PixelRegion::Dark].density(), 0.0);
+}
+
+/// n samples: error e_i, confidence c_i.
+EstimateSamples samples(const std::vector<float>& errors, const std::vector<float>& confidence) {
+  EstimateSamples s;
+  s.abs_error = errors;
+  s.confidence = confidence;
+  s.scorable = static_cast<double>(errors.size());
+  return s;
+}
+
+TEST(ErrorConfidence, PerfectRankingMatchesTheOracle) {
+  // 100 estimates, the 20 worst (error 5) the least confident.
+  std::vector<float> e(100, 0.5f), c(100);
+  for (int i = 0; i < 100; ++i) {
+    c[static_cast<size_t>(i)] = static_cast<float>(i) / 100.f;
+    if (i < 20) e[static_cast<size_t>(i)] = 5.f;
+  }
+  const bdis::Sparsification s = bdis::sparsify(samples(e, c));
+  EXPECT_NEAR(s.ratio(), 1.0, 1e-9);
+  EXPECT_EQ(s.bad2_top25, 0.0);
+  EXPECT_EQ(s.bad2_top50, 0.0);
+  // Deciles, least confident first: 100 %, 100 %, then 0.
+  EXPECT_EQ(s.decile_bad2[0], 1.0);
+  EXPECT_EQ(s.decile_bad2[1], 1.0);
+  EXPECT_EQ(s.decile_bad2[2], 0.0);
+  EXPECT_TRUE(s.monotone());
+  // bad2 of the most confident f: 0 up to f = 0.8, then (f - 0.8) / f; the
+  // trapezoids from 0.05 to 1: 0.05 * (0.5 * 0.2 / 1 + 0.15 / 0.95 + 0.1 / 0.9 + 0.05 / 0.85 * 1.5 - ...)
+  // computed step by step below.
+  double area = 0, prev = 0;
+  for (int i = 1; i <= 20; ++i) {
+    const double f = 0.05 * i, b = f > 0.8 ? (f - 0.8) / f : 0.0;
+    if (i > 1) area += 0.05 * 0.5 * (prev + b);
+    prev = b;
+  }
+  EXPECT_NEAR(s.area, area, 1e-9);
+}
+
+TEST(ErrorConfidence, ReversedRankingIsFarFromTheOracleAndNotMonotone) {
+  std::vector<float> e(100, 0.5f), c(100);
+  for (int i = 0; i < 100; ++i) {
+    c[static_cast<size_t>(i)] = static_cast<float>(i) / 100.f;
+    if (i >= 80) e[static_cast<size_t>(i)] = 5.f;  // the worst are the most confident
+  }
+  const bdis::Sparsification s = bdis::sparsify(samples(e, c));
+  EXPECT_GT(s.ratio(), 4.0);
+  EXPECT_EQ(s.bad2_top25, 20.0 / 25.0);
+  EXPECT_FALSE(s.monotone());
+}
+
+TEST(ErrorConfidence, ThresholdsLeaveDensityAndBad2) {
+  // 4 estimates of 8 scorable pixels.
+  EstimateSamples s = samples({0.5f, 3.f, 0.2f, 4.f}, {0.9f, 0.8f, 0.3f, 0.1f});
+  s.scorable = 8;
+  const std::vector<bdis::ThresholdRow> rows = bdis::confidenceThresholds(s, {0.f, 0.5f, 0.85f, 0.95f});
+  ASSERT_EQ(rows.size(), 4u);
+  EXPECT_DOUBLE_EQ(rows[0].density, 0.5);
+  EXPECT_DOUBLE_EQ(rows[0].bad2, 0.5);
+  EXPECT_DOUBLE_EQ(rows[1].density, 0.25);
+  EXPECT_DOUBLE_EQ(rows[1].bad2, 0.5);
+  EXPECT_DOUBLE_EQ(rows[2].density, 0.125);
+  EXPECT_DOUBLE_EQ(rows[2].bad2, 0.0);
+  EXPECT_DOUBLE_EQ(rows[3].density, 0.0);
+}
+
+TEST(ErrorVariance, GaussianErrorsWithTheirSigmaAreCalibrated) {
+  std::mt19937 rng(3);
+  EstimateSamples s;
+  for (int i = 0; i < 200000; ++i) {
+    const float sigma = 0.2f + 0.01f * static_cast<float>(i % 200);
+    std::normal_distribution<float> n(0.f, sigma);
+    s.abs_error.push_back(std::fabs(n(rng)));
+    s.confidence.push_back(0.f);
+    s.sigma.push_back(sigma);
+  }
+  const bdis::VarianceCalibration c = bdis::calibrateVariance(s);
+  EXPECT_NEAR(c.within1, 0.6827, 0.005);
+  EXPECT_NEAR(c.within2, 0.9545, 0.005);
+  EXPECT_NEAR(c.median_ratio, 0.6745, 0.01);
+  // Twice too wide a sigma: within 1 sigma is then within 2 true sigmas.
+  for (float& sigma : s.sigma) sigma *= 2.f;
+  EXPECT_NEAR(bdis::calibrateVariance(s).within1, 0.9545, 0.005);
+}
+
+TEST(ErrorBorderStrips, CountsEstimatesOffTheInnerMedian) {
+  // 10 rows of 200 px; black frame: columns 0-19 and 180-199. Disparity 10
+  // everywhere inside, except a wrong strip of 8 px (at 30) next to the left
+  // frame in rows 0-4.
+  cv::Mat left(10, 200, CV_8UC1, cv::Scalar(90));
+  left.colRange(0, 20).setTo(0);
+  left.colRange(180, 200).setTo(0);
+  cv::Mat d(10, 200, CV_32FC1, cv::Scalar(10.f));
+  d.colRange(0, 20).setTo(-1.f);
+  d.colRange(180, 200).setTo(-1.f);
+  d(cv::Rect(20, 0, 8, 5)).setTo(30.f);
+  const bdis::BorderStripScore s = bdis::scoreBorderStrips(d, left);
+  // 12 px per end and row, both ends of 10 rows.
+  EXPECT_EQ(s.estimates, 240);
+  EXPECT_EQ(s.outliers, 40);
+  EXPECT_NEAR(bdis::validPixelDensity(d, left), 1.0, 1e-12);
+}
+
+}  // namespace
