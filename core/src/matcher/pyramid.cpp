@@ -28,16 +28,42 @@ void lumaOfBgrRow(const uchar* __restrict bgr, int w, uchar* __restrict grey, uc
   }
 }
 
+/// Rectification leaves more than black outside the view: interpolating the
+/// image against its black frame gives a seam of dark pixels (grey 1-20 in
+/// endoscope recordings) and one blended pixel before the tissue. As a
+/// texture, that frame edge matches the other view's frame edge, which sits
+/// at another offset: a strip of wrong disparities along the border. So where
+/// a row starts or ends in black (the frame always reaches the image's edge),
+/// the dark pixels after the black, up to kSeamWidth of them, and the pixel
+/// after those are outside the view too. Black holes inside the view (dead
+/// pixels, a masked tool) are not frames and keep their neighbours.
+constexpr int kSeamWidth = 8;
+constexpr uchar kSeamGrey = 20;
+
+void invalidateSeams(const uchar* grey, int w, uchar* valid) {
+  for (const int side : {+1, -1}) {
+    int i = side > 0 ? 0 : w - 1;
+    const int end = side > 0 ? w : -1;
+    if (valid[i]) continue;  // the row does not start (end) in black: the usual case
+    while (i != end && !valid[i]) i += side;
+    for (int n = 0; n < kSeamWidth && i != end && grey[i] <= kSeamGrey; ++n, i += side) valid[i] = 0;
+    if (i != end) valid[i] = 0;  // the blended pixel
+  }
+}
+
 /// Grey value and validity of row y of an 8-bit mono or BGR input: returns
 /// the input row itself when it is mono, else `luma_row` filled.
 const uchar* greyAndValidityRow(const cv::Mat& src, int y, uchar* luma_row, uchar* valid_row) {
   const uchar* row = src.ptr<uchar>(y);
+  const uchar* grey = row;
   if (src.channels() == 1) {
     validityOfMonoRow(row, src.cols, valid_row);
-    return row;
+  } else {
+    lumaOfBgrRow(row, src.cols, luma_row, valid_row);
+    grey = luma_row;
   }
-  lumaOfBgrRow(row, src.cols, luma_row, valid_row);
-  return luma_row;
+  invalidateSeams(grey, src.cols, valid_row);
+  return grey;
 }
 
 BDIS_ROW_LOOP

@@ -13,6 +13,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "bdis_stereo/error_analysis.hpp"
 #include "bdis_stereo/matcher.hpp"
 #include "matcher_test_util.hpp"
 #include "test_images.hpp"
@@ -268,6 +269,65 @@ TEST(MatcherRobustness, BlackBordersGiveNoEstimateAndNoWrongMatch) {
   printStats("between the black areas", s);
   EXPECT_GE(s.density(), 0.99);
   EXPECT_LT(s.median, 0.05);
+}
+
+/// Frames an image as rectification does: black columns [0, left) and
+/// [w - right, w), each followed inwards by a dark seam (grey 18 down to 2,
+/// `seam` px) and one pixel blended halfway between the seam and the image.
+void rectificationFrame(cv::Mat& image, int left, int right, int seam) {
+  const int w = image.cols;
+  for (int y = 0; y < image.rows; ++y) {
+    uchar* row = image.ptr<uchar>(y);
+    for (const int side : {+1, -1}) {
+      const int edge = side > 0 ? left : w - 1 - right;  // first pixel inside the frame
+      for (int x = side > 0 ? 0 : w - right; x < (side > 0 ? left : w); ++x) row[x] = 0;
+      for (int i = 0; i < seam; ++i) row[edge + side * i] = static_cast<uchar>(18 - 16 * i / std::max(1, seam - 1));
+      uchar& blend = row[edge + side * seam];
+      blend = static_cast<uchar>((blend + 10) / 2);
+    }
+  }
+}
+
+// The frames of the two views of a rectified pair sit at different offsets,
+// and their edges (black, a dark seam, a blended pixel) are the strongest
+// texture near the border. Matched to each other, they would give a strip of
+// disparities equal to the frames' offset along the border (in endoscope
+// recordings 5-20 px wide). Left frame 40 px, right 18 px, at a disparity
+// of 12 px; right-hand frames 30 and 45 px, seams of 3 to 5 px.
+TEST(MatcherRobustness, RectificationFramesGiveNoStripOfWrongDisparity) {
+  const double d = 12.0;
+  for (int seam : {3, 5}) {
+    SCOPED_TRACE("seam " + std::to_string(seam));
+    StereoPair pair = texturedPair(kW, kH, {d, 0.0}, 9);
+    rectificationFrame(pair.left, 40, 30, seam);
+    rectificationFrame(pair.right, 18, 45, seam);
+    for (const char* preset : {"fast", "balanced", "accurate"}) {
+      SCOPED_TRACE(preset);
+      const MatchResult r = run(MatcherParams::preset(preset), pair.left, pair.right);
+      expectValidResult(r, pair.left.size(), false);
+      // Per row, within 16 px of the frames' inner edges: no estimate off
+      // by more than 1 px, and no strip of them against the inner median.
+      int near_border = 0, wrong = 0;
+      for (int y = 16; y < kH - 16; ++y) {
+        for (const int x0 : {40, kW - 30 - 16}) {
+          for (int x = x0; x < x0 + 16; ++x) {
+            const float e = r.disparity.at<float>(y, x);
+            if (e < 0.f) continue;
+            ++near_border;
+            wrong += std::fabs(e - pair.gt.at<float>(y, x)) > 1.f ? 1 : 0;
+          }
+        }
+      }
+      const bdis::BorderStripScore strips = bdis::scoreBorderStrips(r.disparity, pair.left);
+      std::printf("[measured] %s, seam %d px: %d estimates within 16 px of the frames, %d off by > 1 px; "
+                  "border strips %.1f %% outliers of %.0f\n",
+                  preset, seam, near_border, wrong, 100 * strips.rate(), strips.estimates);
+      EXPECT_GT(near_border, 0);
+      EXPECT_EQ(wrong, 0);
+      EXPECT_EQ(strips.outliers, 0);
+      EXPECT_GT(strips.estimates, 0);
+    }
+  }
 }
 
 // Small black holes inside the left view (dead pixels, a masked instrument

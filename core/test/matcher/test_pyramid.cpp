@@ -22,8 +22,10 @@ using bdis::detail::StereoPyramid;
 std::pair<cv::Mat, cv::Mat> texturedPairWithInvalidPixels(int w, int h) {
   cv::RNG rng(7);
   cv::Mat left(h, w, CV_8UC3), right(h, w, CV_8UC3);
-  rng.fill(left, cv::RNG::UNIFORM, 1, 255);
-  rng.fill(right, cv::RNG::UNIFORM, 1, 255);
+  // Not darker than a rectification seam: only the pixel next to the black
+  // border is taken for the blend between frame and image.
+  rng.fill(left, cv::RNG::UNIFORM, 21, 255);
+  rng.fill(right, cv::RNG::UNIFORM, 21, 255);
   left.colRange(0, 9).setTo(cv::Scalar::all(0));
   right(cv::Rect(w / 2, h / 3, 15, 11)).setTo(cv::Scalar::all(0));
   return {left, right};
@@ -77,7 +79,8 @@ TEST(MirroredPyramid, WholeLevelIsTheFlippedPair) {
     }
   }
   // The right image's hole (15x11 at level 0) and the left image's border
-  // (9 columns) reach level 1; the flags say what the rows say.
+  // (9 columns and the blended one after them) reach level 1; the flags say
+  // what the rows say.
   EXPECT_GT(invalid_left, 20);
   EXPECT_EQ(invalid_right, 5 * h);
   EXPECT_FALSE(l.left_all_valid);
