@@ -1,7 +1,7 @@
 // Accuracy of the default preset on the real synthetic sequences of the shared
 // data folder, scored exactly as its README defines. The bar is the authors'
-// journal release as measured on our machines (METHOD.md section 5): the
-// default preset must match or beat it on every column at once.
+// journal release as measured on our machines (docs/method.md, "Anchor
+// numbers"): the default preset must match or beat it on every column at once.
 #include <cstdlib>
 #include <string>
 
