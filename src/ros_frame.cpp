@@ -3,19 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#include <xmmintrin.h>
-#endif
-
 #include <image_geometry/pinhole_camera_model.h>
 #include <opencv2/imgproc.hpp>
 #include <sensor_msgs/image_encodings.h>
+#include <tf2/LinearMath/Matrix3x3.h>
+#include <tf2/LinearMath/Quaternion.h>
 
 #include "bdis_stereo/matcher.hpp"
 
@@ -24,7 +20,6 @@ namespace enc = sensor_msgs::image_encodings;
 
 namespace {
 
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 constexpr float kInvalidDisparity = -1.0f;  // DisparityImage: min_disparity (0) - 1
 
 int channelsOf(const std::string& encoding) {
@@ -257,68 +252,12 @@ void fillPointCloud(const cv::Mat& disparity, const bdis::StereoCamera& camera,
   fillPointCloudFromDepth(depth, camera, left_bgr, organized, transform, msg);
 }
 
-namespace {
-
-// One organised row without a transform, the common case: no branch per
-// point. The same arithmetic as bdis::disparityToPoints (x and y in double
-// from the float depth), so the same values.
-void organisedCloudRow(const float* z, int width, const double* nx, double ny, const cv::Vec3b* bgr,
-                       uint8_t* out) {
-  const uint32_t point_step = bgr ? 16 : 12;
-  int x = 0;
-#if defined(__SSE2__)
-  if (bgr) {
-    // Four points at a time: x, y, z and rgb as four vectors, transposed into
-    // four 16-byte points. rgb (PCL: 0x00RRGGBB, little-endian) is the B, G,
-    // R bytes and a 0: a 4-byte load masked, so the row's last pixel, whose
-    // load would pass the row's end, is left to the loop below.
-    const __m128 nan = _mm_set1_ps(kNaN);
-    const __m128d ny2 = _mm_set1_pd(ny);
-    const __m128i rgb_mask = _mm_set1_epi32(0x00FFFFFF);
-    const uint8_t* c = bgr[0].val;
-    for (; x + 4 < width; x += 4, out += 64) {
-      const __m128 zv = _mm_loadu_ps(z + x);
-      const __m128 valid = _mm_cmpord_ps(zv, zv);
-      const __m128d z_lo = _mm_cvtps_pd(zv), z_hi = _mm_cvtps_pd(_mm_movehl_ps(zv, zv));
-      const __m128 xv = _mm_movelh_ps(_mm_cvtpd_ps(_mm_mul_pd(_mm_loadu_pd(nx + x), z_lo)),
-                                      _mm_cvtpd_ps(_mm_mul_pd(_mm_loadu_pd(nx + x + 2), z_hi)));
-      const __m128 yv = _mm_movelh_ps(_mm_cvtpd_ps(_mm_mul_pd(ny2, z_lo)), _mm_cvtpd_ps(_mm_mul_pd(ny2, z_hi)));
-      __m128 px = _mm_or_ps(_mm_and_ps(valid, xv), _mm_andnot_ps(valid, nan));
-      __m128 py = _mm_or_ps(_mm_and_ps(valid, yv), _mm_andnot_ps(valid, nan));
-      __m128 pz = _mm_or_ps(_mm_and_ps(valid, zv), _mm_andnot_ps(valid, nan));
-      int32_t colour[4];
-      for (int k = 0; k < 4; ++k) std::memcpy(&colour[k], c + 3 * (x + k), 4);
-      __m128 pc = _mm_castsi128_ps(
-          _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(colour)), rgb_mask));
-      _MM_TRANSPOSE4_PS(px, py, pz, pc);
-      _mm_storeu_ps(reinterpret_cast<float*>(out), px);
-      _mm_storeu_ps(reinterpret_cast<float*>(out + 16), py);
-      _mm_storeu_ps(reinterpret_cast<float*>(out + 32), pz);
-      _mm_storeu_ps(reinterpret_cast<float*>(out + 48), pc);
-    }
-  }
-#endif
-  for (; x < width; ++x, out += point_step) {
-    const bool valid = !std::isnan(z[x]);
-    const float xyz[3] = {valid ? static_cast<float>(nx[x] * z[x]) : kNaN,
-                          valid ? static_cast<float>(ny * z[x]) : kNaN, valid ? z[x] : kNaN};
-    std::memcpy(out, xyz, 12);
-    if (bgr) {
-      const uint32_t packed = (static_cast<uint32_t>(bgr[x][2]) << 16) |
-                              (static_cast<uint32_t>(bgr[x][1]) << 8) | bgr[x][0];
-      std::memcpy(out + 12, &packed, 4);
-    }
-  }
-}
-
-}  // namespace
-
 void fillPointCloudFromDepth(const cv::Mat& depth, const bdis::StereoCamera& camera,
                              const cv::Mat& left_bgr, bool organized, const RigidTransform* transform,
                              sensor_msgs::PointCloud2& msg) {
   CV_Assert(depth.type() == CV_32FC1);
   const bool rgb = !left_bgr.empty() && left_bgr.type() == CV_8UC3 && left_bgr.size() == depth.size();
-  const uint32_t point_step = rgb ? 16 : 12;
+  const uint32_t point_step = rgb ? bdis::kColouredPointBytes : bdis::kPointBytes;
   if (msg.fields.size() != (rgb ? 4u : 3u)) {
     msg.fields.clear();
     const char* names[] = {"x", "y", "z", "rgb"};
@@ -333,56 +272,11 @@ void fillPointCloudFromDepth(const cv::Mat& depth, const bdis::StereoCamera& cam
   }
   msg.is_bigendian = false;
   msg.point_step = point_step;
-  std::size_t count = static_cast<std::size_t>(depth.rows) * depth.cols;
-  if (!organized) {
-    count = 0;
-    for (int y = 0; y < depth.rows; ++y) {
-      const float* z = depth.ptr<float>(y);
-      for (int x = 0; x < depth.cols; ++x) count += std::isnan(z[x]) ? 0 : 1;
-    }
-  }
+  const std::size_t count = bdis::pointCount(depth, organized);
   // Sized without zero-filling where the message is reused (same size: no-op).
   msg.data.resize(count * point_step);
-  // Per thread and kept: the nodelet's worker allocates it once, not per frame.
-  thread_local std::vector<double> nx;
-  nx.resize(static_cast<std::size_t>(depth.cols));
-  for (int x = 0; x < depth.cols; ++x) nx[x] = (x - camera.cx) / camera.fx;
-  uint8_t* out = msg.data.data();
-  for (int y = 0; y < depth.rows; ++y) {
-    const float* z = depth.ptr<float>(y);
-    const cv::Vec3b* c = rgb ? left_bgr.ptr<cv::Vec3b>(y) : nullptr;
-    const double ny = (y - camera.cy) / camera.fy;
-    if (organized && !transform) {
-      organisedCloudRow(z, depth.cols, nx.data(), ny, c, out);
-      out += static_cast<std::size_t>(depth.cols) * point_step;
-      continue;
-    }
-    for (int x = 0; x < depth.cols; ++x) {
-      const bool valid = !std::isnan(z[x]);
-      if (!valid && !organized) continue;
-      float xyz[3] = {kNaN, kNaN, kNaN};
-      if (valid) {
-        xyz[0] = static_cast<float>(nx[x] * z[x]);
-        xyz[1] = static_cast<float>(ny * z[x]);
-        xyz[2] = z[x];
-        if (transform) {
-          const double* r = transform->r;
-          const double* t = transform->t;
-          const float a = xyz[0], b = xyz[1], zz = xyz[2];
-          xyz[0] = static_cast<float>(r[0] * a + r[1] * b + r[2] * zz + t[0]);
-          xyz[1] = static_cast<float>(r[3] * a + r[4] * b + r[5] * zz + t[1]);
-          xyz[2] = static_cast<float>(r[6] * a + r[7] * b + r[8] * zz + t[2]);
-        }
-      }
-      std::memcpy(out, xyz, 12);
-      if (rgb) {
-        const uint32_t packed = (static_cast<uint32_t>(c[x][2]) << 16) |
-                                (static_cast<uint32_t>(c[x][1]) << 8) | c[x][0];
-        std::memcpy(out + 12, &packed, 4);
-      }
-      out += point_step;
-    }
-  }
+  bdis::writePointCloud(depth, camera, rgb ? left_bgr : cv::Mat(), organized, transform, point_step,
+                        msg.data.data());
   if (organized) {
     msg.height = depth.rows;
     msg.width = depth.cols;
@@ -393,6 +287,23 @@ void fillPointCloudFromDepth(const cv::Mat& depth, const bdis::StereoCamera& cam
     msg.is_dense = true;
   }
   msg.row_step = msg.width * point_step;
+}
+
+std::string rigidTransformFromTf(const geometry_msgs::TransformStamped& tf, RigidTransform& transform) {
+  const auto& q = tf.transform.rotation;
+  const tf2::Quaternion rotation(q.x, q.y, q.z, q.w);
+  // tf2 hands out quaternions as published; normalise, so that a slightly
+  // off unit quaternion (rounded by its publisher) still gives a rotation.
+  const double norm = rotation.length();
+  if (!(norm > 0.0) || !std::isfinite(norm)) return "invalid rotation";
+  const tf2::Matrix3x3 r(rotation / norm);
+  for (int row = 0; row < 3; ++row) {
+    for (int col = 0; col < 3; ++col) transform.r[3 * row + col] = r[row][col];
+  }
+  transform.t[0] = tf.transform.translation.x;
+  transform.t[1] = tf.transform.translation.y;
+  transform.t[2] = tf.transform.translation.z;
+  return "";
 }
 
 }  // namespace bdis_stereo

@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <string>
 
+#include <geometry_msgs/TransformStamped.h>
 #include <opencv2/core.hpp>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
@@ -70,21 +71,23 @@ void fillDisparityImage(const cv::Mat& disparity, const bdis::StereoCamera& came
 void fillDepthImage(const cv::Mat& disparity, const bdis::StereoCamera& camera,
                     sensor_msgs::Image& msg);
 
-/// A rigid transform p' = R p + t (row-major R), applied to the cloud.
-struct RigidTransform {
-  double r[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  double t[3] = {0, 0, 0};
-};
+/// The cloud's transform (bdis::RigidTransform: p' = R p + t, row-major R).
+using RigidTransform = bdis::RigidTransform;
+
+/// A tf2 transform as a RigidTransform: the rotation from the quaternion,
+/// normalised first (publishers round unit quaternions). Returns "" on
+/// success, else what is wrong ("invalid rotation" for a zero or non-finite
+/// quaternion), leaving `transform` untouched.
+std::string rigidTransformFromTf(const geometry_msgs::TransformStamped& tf, RigidTransform& transform);
 
 /// sensor_msgs/PointCloud2 with float32 x, y, z and, when `left_bgr` is a
 /// CV_8UC3 BGR image, a packed float32 rgb field (PCL convention), from a
 /// depth image (CV_32FC1 as fillDepthImage writes it, NaN where unknown):
-/// x, y, z as bdis::disparityToPoints gives them. organized: height x width
-/// of the image, NaN for pixels without an estimate, is_dense = false;
-/// otherwise height 1 and only valid points, is_dense = true. `transform`
-/// (may be null) maps the camera-frame points into another frame. Written
-/// straight into `msg.data`, which keeps its capacity (and, at an unchanged
-/// size, is not cleared first) when `msg` is reused. Header untouched.
+/// x, y, z as bdis::disparityToPoints gives them (bdis::writePointCloud writes them). organized: height x
+/// width of the image, NaN for pixels without an estimate, is_dense = false; otherwise height 1 and only
+/// valid points, is_dense = true. `transform` (may be null) maps the camera-frame points into another frame.
+/// Written straight into `msg.data`, which keeps its capacity (and, at an unchanged size, is not cleared
+/// first) when `msg` is reused. Header untouched.
 void fillPointCloudFromDepth(const cv::Mat& depth, const bdis::StereoCamera& camera,
                              const cv::Mat& left_bgr, bool organized, const RigidTransform* transform,
                              sensor_msgs::PointCloud2& msg);

@@ -373,11 +373,11 @@ void printRows(const std::string& what, cv::Size size, size_t frames, int rounds
 
 bdis::MatcherParams applySet(bdis::MatcherParams p, const std::string& assignment) {
   const size_t eq = assignment.find('=');
-  const bdis::ParamField* f =
-      eq == std::string::npos ? nullptr : bdis::findParamField(assignment.substr(0, eq));
-  if (!f) throw std::invalid_argument("--set needs NAME=VALUE with a matcher parameter name");
-  const std::string value = assignment.substr(eq + 1);
-  f->set(p, value == "true" ? 1.0 : value == "false" ? 0.0 : std::stod(value));
+  if (eq == std::string::npos)
+    throw std::invalid_argument("--set needs NAME=VALUE, got '" + assignment + "'");
+  // The same rules as bdis_match's --set.
+  bdis::bindParam(p, assignment.substr(0, eq), bdis::ParamValue::fromText(assignment.substr(eq + 1)),
+                  "--set");
   p.validate();
   return p;
 }

@@ -1,9 +1,16 @@
 #include "bdis_stereo/geometry.hpp"
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#include <xmmintrin.h>
+#endif
 
 #include "matcher/patch_kernels.hpp"  // BDIS_ROW_LOOP
 
@@ -90,6 +97,139 @@ void disparityToPoints(const cv::Mat& disparity, const StereoCamera& camera, cv:
       }
       const double nx = (x - camera.cx) / camera.fx;
       out[x] = cv::Vec3f(static_cast<float>(nx * z), static_cast<float>(ny * z), z);
+    }
+  }
+}
+
+// ---- Point clouds -------------------------------------------------------------
+
+namespace {
+
+void packColour(const cv::Vec3b& bgr, uint8_t* out) {
+  const uint32_t packed =
+      (static_cast<uint32_t>(bgr[2]) << 16) | (static_cast<uint32_t>(bgr[1]) << 8) | bgr[0];
+  std::memcpy(out, &packed, 4);
+}
+
+// One organised row without a transform, the common case: no branch per
+// point. The same arithmetic as disparityToPoints (x and y in double from the
+// float depth), so the same values.
+void organisedRow(const float* z, int width, const double* nx, double ny, const cv::Vec3b* bgr,
+                  std::size_t point_step, uint8_t* out) {
+  int x = 0;
+#if defined(__SSE2__)
+  if (bgr && point_step == kColouredPointBytes) {
+    // Four points at a time: x, y, z and rgb as four vectors, transposed into
+    // four 16-byte points. rgb (PCL: 0x00RRGGBB, little-endian) is the B, G,
+    // R bytes and a 0: a 4-byte load masked, so the row's last pixel, whose
+    // load would pass the row's end, is left to the loop below.
+    const __m128 nan = _mm_set1_ps(kNaN);
+    const __m128d ny2 = _mm_set1_pd(ny);
+    const __m128i rgb_mask = _mm_set1_epi32(0x00FFFFFF);
+    const uint8_t* c = bgr[0].val;
+    for (; x + 4 < width; x += 4, out += 64) {
+      const __m128 zv = _mm_loadu_ps(z + x);
+      const __m128 valid = _mm_cmpord_ps(zv, zv);
+      const __m128d z_lo = _mm_cvtps_pd(zv), z_hi = _mm_cvtps_pd(_mm_movehl_ps(zv, zv));
+      const __m128 xv = _mm_movelh_ps(_mm_cvtpd_ps(_mm_mul_pd(_mm_loadu_pd(nx + x), z_lo)),
+                                      _mm_cvtpd_ps(_mm_mul_pd(_mm_loadu_pd(nx + x + 2), z_hi)));
+      const __m128 yv =
+          _mm_movelh_ps(_mm_cvtpd_ps(_mm_mul_pd(ny2, z_lo)), _mm_cvtpd_ps(_mm_mul_pd(ny2, z_hi)));
+      __m128 px = _mm_or_ps(_mm_and_ps(valid, xv), _mm_andnot_ps(valid, nan));
+      __m128 py = _mm_or_ps(_mm_and_ps(valid, yv), _mm_andnot_ps(valid, nan));
+      __m128 pz = _mm_or_ps(_mm_and_ps(valid, zv), _mm_andnot_ps(valid, nan));
+      int32_t colour[4];
+      for (int k = 0; k < 4; ++k) std::memcpy(&colour[k], c + 3 * (x + k), 4);
+      __m128 pc = _mm_castsi128_ps(
+          _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(colour)), rgb_mask));
+      _MM_TRANSPOSE4_PS(px, py, pz, pc);
+      _mm_storeu_ps(reinterpret_cast<float*>(out), px);
+      _mm_storeu_ps(reinterpret_cast<float*>(out + 16), py);
+      _mm_storeu_ps(reinterpret_cast<float*>(out + 32), pz);
+      _mm_storeu_ps(reinterpret_cast<float*>(out + 48), pc);
+    }
+  }
+#endif
+  for (; x < width; ++x, out += point_step) {
+    const bool valid = !std::isnan(z[x]);
+    const float xyz[3] = {valid ? static_cast<float>(nx[x] * z[x]) : kNaN,
+                          valid ? static_cast<float>(ny * z[x]) : kNaN, valid ? z[x] : kNaN};
+    std::memcpy(out, xyz, 12);
+    if (bgr) packColour(bgr[x], out + 12);
+  }
+}
+
+// Any other row: dense (valid points only) and/or transformed. Returns the
+// end of what it wrote.
+uint8_t* generalRow(const float* z, int width, const double* nx, double ny, const cv::Vec3b* bgr,
+                    bool organized, const RigidTransform* transform, std::size_t point_step, uint8_t* out) {
+  for (int x = 0; x < width; ++x) {
+    const bool valid = !std::isnan(z[x]);
+    if (!valid && !organized) continue;
+    float xyz[3] = {kNaN, kNaN, kNaN};
+    if (valid) {
+      xyz[0] = static_cast<float>(nx[x] * z[x]);
+      xyz[1] = static_cast<float>(ny * z[x]);
+      xyz[2] = z[x];
+      if (transform) {
+        const double* r = transform->r;
+        const double* t = transform->t;
+        const float a = xyz[0], b = xyz[1], c = xyz[2];
+        xyz[0] = static_cast<float>(r[0] * a + r[1] * b + r[2] * c + t[0]);
+        xyz[1] = static_cast<float>(r[3] * a + r[4] * b + r[5] * c + t[1]);
+        xyz[2] = static_cast<float>(r[6] * a + r[7] * b + r[8] * c + t[2]);
+      }
+    }
+    std::memcpy(out, xyz, 12);
+    if (bgr) packColour(bgr[x], out + 12);
+    out += point_step;
+  }
+  return out;
+}
+
+void requireDepth(const cv::Mat& depth) {
+  if (depth.type() != CV_32FC1) {
+    throw std::invalid_argument("depth must be a CV_32FC1 image, got " + cv::typeToString(depth.type()));
+  }
+}
+
+}  // namespace
+
+std::size_t pointCount(const cv::Mat& depth, bool organized) {
+  requireDepth(depth);
+  if (organized) return depth.total();
+  std::size_t count = 0;
+  for (int y = 0; y < depth.rows; ++y) {
+    const float* z = depth.ptr<float>(y);
+    for (int x = 0; x < depth.cols; ++x) count += std::isnan(z[x]) ? 0 : 1;
+  }
+  return count;
+}
+
+void writePointCloud(const cv::Mat& depth, const StereoCamera& camera, const cv::Mat& bgr, bool organized,
+                     const RigidTransform* transform, std::size_t point_step, uint8_t* out) {
+  requireDepth(depth);
+  camera.validate();
+  const bool colour = !bgr.empty();
+  if (colour && (bgr.type() != CV_8UC3 || bgr.size() != depth.size())) {
+    throw std::invalid_argument("colour image must be CV_8UC3 of the depth's size");
+  }
+  if (point_step < (colour ? kColouredPointBytes : kPointBytes)) {
+    throw std::invalid_argument("point_step " + std::to_string(point_step) + " is too small for the fields");
+  }
+  // Per thread and kept: a caller's frame loop allocates it once, not per frame.
+  thread_local std::vector<double> nx;
+  nx.resize(static_cast<std::size_t>(depth.cols));
+  for (int x = 0; x < depth.cols; ++x) nx[x] = (x - camera.cx) / camera.fx;
+  for (int y = 0; y < depth.rows; ++y) {
+    const float* z = depth.ptr<float>(y);
+    const cv::Vec3b* c = colour ? bgr.ptr<cv::Vec3b>(y) : nullptr;
+    const double ny = (y - camera.cy) / camera.fy;
+    if (organized && !transform) {
+      organisedRow(z, depth.cols, nx.data(), ny, c, point_step, out);
+      out += static_cast<std::size_t>(depth.cols) * point_step;
+    } else {
+      out = generalRow(z, depth.cols, nx.data(), ny, c, organized, transform, point_step, out);
     }
   }
 }

@@ -41,7 +41,7 @@ int runGuarded(const char* tool, const std::function<int()>& body) {
 }
 
 MatcherParams resolveParams(const std::string& preset, const std::string& params_file) {
-  MatcherParams p = MatcherParams::preset(preset.empty() ? "balanced" : preset);
+  MatcherParams p = bindPreset(ParamValue::ofString(preset.empty() ? "balanced" : preset), "--preset");
   if (!params_file.empty()) p = loadParams(params_file, p);
   return p;
 }
@@ -83,22 +83,11 @@ long long parseInteger(const std::string& what, const std::string& text) {
 MatcherParams applyOverride(MatcherParams params, const std::string& assignment) {
   const size_t eq = assignment.find('=');
   if (eq == std::string::npos) throw UsageError("expected NAME=VALUE, got '" + assignment + "'");
-  const std::string name = assignment.substr(0, eq), text = assignment.substr(eq + 1);
-  const ParamField* f = findParamField(name);
-  if (!f) throw UsageError("unknown parameter '" + name + "'");
-  double v = 0;
-  if (text == "true") {
-    v = 1;
-  } else if (text == "false") {
-    v = 0;
-  } else {
-    v = parseDouble("parameter " + name, text);
+  try {
+    bindParam(params, assignment.substr(0, eq), ParamValue::fromText(assignment.substr(eq + 1)), "--set");
+  } catch (const ParamError& e) {
+    throw UsageError(e.what());
   }
-  if (!(v >= f->min_value && v <= f->max_value)) {  // NaN fails too
-    throw UsageError("parameter " + name + " = " + text + " is out of range [" +
-                     std::to_string(f->min_value) + ", " + std::to_string(f->max_value) + "]");
-  }
-  f->set(params, v);
   return params;
 }
 

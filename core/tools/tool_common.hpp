@@ -36,7 +36,8 @@ long long parseInteger(const std::string& what, const std::string& text);
 /// Preset (default "balanced") then an optional YAML file on top.
 MatcherParams resolveParams(const std::string& preset, const std::string& params_file);
 
-/// Applies "name=value" to one field; throws UsageError naming the field.
+/// Applies "name=value" to one field through bdis::bindParam (source "--set";
+/// the value read by ParamValue::fromText); throws UsageError naming the field.
 MatcherParams applyOverride(MatcherParams params, const std::string& assignment);
 
 /// Monotonic milliseconds.

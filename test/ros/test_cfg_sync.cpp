@@ -1,7 +1,9 @@
 // cfg/BdisStereo.cfg must describe exactly the core's parameters: same names,
-// ranges and (balanced preset) defaults, and the preset choices of the core.
+// ranges, (balanced preset) defaults and descriptions, and the preset choices
+// of the core with the core's descriptions.
 #include <gtest/gtest.h>
 
+#include <map>
 #include <set>
 #include <string>
 
@@ -34,8 +36,41 @@ const char* typeName(bdis::ParamField::Type t) {
     case bdis::ParamField::Type::Int: return "int";
     case bdis::ParamField::Type::Float: return "double";
     case bdis::ParamField::Type::Bool: return "bool";
+    case bdis::ParamField::Type::String:
+      return "str";
   }
   return "?";
+}
+
+// name -> description of every parameter of the cfg.
+std::map<std::string, std::string> descriptions() {
+  std::map<std::string, std::string> out;
+  for (const auto& group : bdis_stereo::BdisStereoConfig::__getDescriptionMessage__().groups) {
+    for (const auto& p : group.parameters) out[p.name] = p.description;
+  }
+  return out;
+}
+
+// The preset enum's edit_method (a Python dict literal) as name -> description.
+std::map<std::string, std::string> presetChoices() {
+  std::string edit_method;
+  for (const auto& group : bdis_stereo::BdisStereoConfig::__getDescriptionMessage__().groups) {
+    for (const auto& p : group.parameters) {
+      if (p.name == "preset") edit_method = p.edit_method;
+    }
+  }
+  std::map<std::string, std::string> out;
+  const std::string name_key = "{'name': '", description_key = "'description': ";
+  for (size_t at = edit_method.find(name_key); at != std::string::npos;
+       at = edit_method.find(name_key, at + 1)) {
+    const size_t name_start = at + name_key.size();
+    const std::string name = edit_method.substr(name_start, edit_method.find('\'', name_start) - name_start);
+    // Python quotes with ' unless the text holds one, then with ".
+    const size_t d = edit_method.find(description_key, name_start) + description_key.size();
+    const char quote = edit_method[d];
+    out[name] = edit_method.substr(d + 1, edit_method.find(quote, d + 1) - d - 1);
+  }
+  return out;
 }
 
 }  // namespace
@@ -88,5 +123,23 @@ TEST(CfgSync, PresetChoicesArePresetNames) {
   for (const std::string& name : bdis::MatcherParams::presetNames()) {
     EXPECT_NE(edit_method.find("'value': '" + name + "'"), std::string::npos)
         << "preset enum lacks " << name << ": " << edit_method;
+  }
+}
+
+TEST(CfgSync, DescriptionsAreTheCoresWordForWord) {
+  const auto cfg = descriptions();
+  for (const bdis::ParamField& f : bdis::paramFields()) {
+    ASSERT_TRUE(cfg.count(f.name)) << f.name;
+    EXPECT_EQ(cfg.at(f.name), f.description) << "description of " << f.name;
+  }
+  EXPECT_EQ(cfg.at("preset"), bdis::presetSpec().description);
+}
+
+TEST(CfgSync, PresetChoicesCarryTheCoresDescriptions) {
+  const auto choices = presetChoices();
+  EXPECT_EQ(choices.size(), bdis::MatcherParams::presetNames().size());
+  for (const std::string& name : bdis::MatcherParams::presetNames()) {
+    ASSERT_TRUE(choices.count(name)) << "preset enum lacks " << name;
+    EXPECT_EQ(choices.at(name), bdis::presetDescription(name)) << "description of preset " << name;
   }
 }

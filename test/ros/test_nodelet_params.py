@@ -93,15 +93,20 @@ class TestNodeletParams(unittest.TestCase):
             rospy.set_param(ns + "/bdis/" + k, v)
         node = LoadedNodelet(ns)
         try:
-            for text in ("parameter preset: ", "using balanced",
-                         "parameter patch_size = 1000 is out of range [4, 32]",
-                         "parameter overlap = ", "has the wrong type (expected a number)",
-                         "parameter iterations = ", "(expected an integer)",
-                         "parameter sigma_r = nan is out of range",
-                         "parameter window_step = inf is out of range",
+            # The core's binder, as for parameter files and bdis_match --set; each
+            # message names the source, then the replacement.
+            for text in ("parameter server /bad/bdis: parameter preset = 'turbo' is unknown: expected one of "
+                         "fast, balanced, accurate; using 'balanced'",
+                         "parameter patch_size = 1000 is out of range [4, 32]: patch side p, px at each level; "
+                         "using 8",
+                         "parameter overlap = 'lots' must be a number",
+                         "parameter iterations = 2.5 must be a whole number",
+                         "parameter sigma_r = nan is not a finite number",
+                         "parameter window_step = inf is not a finite number",
                          "coarser than coarsest_level", "using the balanced preset's pyramid levels",
-                         "queue_size = 0 must be >= 1", "max_image_pixels = 10 is too small",
-                         "tf_timeout = -1 s must be in [0, 1]"):
+                         "parameter queue_size = 0 is out of range [1, 1000]",
+                         "parameter max_image_pixels = 10 is out of range [1024, 2147483647]",
+                         "parameter tf_timeout = -1.0 is out of range [0, 1]"):
                 self.rosout.wait_text(text)
             # The effective values are written back.
             p = lambda k: rospy.get_param(ns + "/bdis/" + k)  # noqa: E731
@@ -114,6 +119,7 @@ class TestNodeletParams(unittest.TestCase):
                 self.assertEqual(p(k), balanced[k], k)
             for k in ("overlap", "sigma_r", "window_step"):
                 self.assertAlmostEqual(p(k), balanced[k], places=5, msg=k)
+            self.assertEqual((p("queue_size"), p("tf_timeout")), (5, 0.01))
             # And it works with them.
             self.check_disparity(self.first_disparity(ns))
         finally:
@@ -128,7 +134,7 @@ class TestNodeletParams(unittest.TestCase):
             # NaN passes dynamic_reconfigure's range clamp; the nodelet rejects it.
             cfg = client.update_configuration({"sigma_r": float("nan")})
             self.assertAlmostEqual(cfg["sigma_r"], 0.5, places=5)
-            self.rosout.wait_text("dynamic_reconfigure: rejected (parameter sigma_r = nan")
+            self.rosout.wait_text("dynamic_reconfigure: rejected (parameter sigma_r = nan is not a finite number")
             # Outside the range: clamped to its end, and said so.
             cfg = client.update_configuration({"patch_size": 1000})
             self.assertEqual(cfg["patch_size"], 32)
@@ -145,7 +151,8 @@ class TestNodeletParams(unittest.TestCase):
             # An unknown preset: kept.
             cfg = client.update_configuration({"preset": "turbo"})
             self.assertEqual(cfg["preset"], "balanced")
-            self.rosout.wait_text("keeping preset balanced")
+            self.rosout.wait_text("dynamic_reconfigure: parameter preset = 'turbo' is unknown: expected one of "
+                                  "fast, balanced, accurate; keeping preset balanced")
             # Frames keep coming, and a valid update still takes effect.
             self.check_disparity(self.first_disparity(ns))
             cfg = client.update_configuration({"patch_size": 8, "overlap": 0.6, "sigma_s": 4.0})

@@ -333,3 +333,58 @@ TEST(RosFrameConvert, ReusedMessagesEqualFreshOnes) {
     }
   }
 }
+
+namespace {
+
+geometry_msgs::TransformStamped tfOf(double qx, double qy, double qz, double qw, double tx = 0, double ty = 0,
+                                     double tz = 0) {
+  geometry_msgs::TransformStamped tf;
+  tf.transform.rotation.x = qx;
+  tf.transform.rotation.y = qy;
+  tf.transform.rotation.z = qz;
+  tf.transform.rotation.w = qw;
+  tf.transform.translation.x = tx;
+  tf.transform.translation.y = ty;
+  tf.transform.translation.z = tz;
+  return tf;
+}
+
+}  // namespace
+
+TEST(RosFrameTransform, QuaternionAndTranslationBecomeTheRigidTransform) {
+  bdis_stereo::RigidTransform t;
+  // 90 degrees about z: x -> y, y -> -x; then (1, 2, 3).
+  const double h = std::sqrt(0.5);
+  ASSERT_EQ(bdis_stereo::rigidTransformFromTf(tfOf(0, 0, h, h, 1, 2, 3), t), "");
+  const double expected[9] = {0, -1, 0, 1, 0, 0, 0, 0, 1};
+  for (int i = 0; i < 9; ++i) EXPECT_NEAR(t.r[i], expected[i], 1e-12) << "r[" << i << "]";
+  EXPECT_EQ(t.t[0], 1.0);
+  EXPECT_EQ(t.t[1], 2.0);
+  EXPECT_EQ(t.t[2], 3.0);
+}
+
+TEST(RosFrameTransform, QuaternionIsNormalisedFirst) {
+  // The same rotation scaled by 3 (a publisher's rounding, exaggerated).
+  bdis_stereo::RigidTransform scaled, unit;
+  const double h = std::sqrt(0.5);
+  ASSERT_EQ(bdis_stereo::rigidTransformFromTf(tfOf(3 * h, 0, 0, 3 * h), scaled), "");
+  ASSERT_EQ(bdis_stereo::rigidTransformFromTf(tfOf(h, 0, 0, h), unit), "");
+  for (int i = 0; i < 9; ++i) EXPECT_NEAR(scaled.r[i], unit.r[i], 1e-12) << "r[" << i << "]";
+  // A rotation matrix: det 1, rows of length 1.
+  const double* r = scaled.r;
+  const double det = r[0] * (r[4] * r[8] - r[5] * r[7]) - r[1] * (r[3] * r[8] - r[5] * r[6]) +
+                     r[2] * (r[3] * r[7] - r[4] * r[6]);
+  EXPECT_NEAR(det, 1.0, 1e-12);
+}
+
+TEST(RosFrameTransform, InvalidRotationIsRefusedAndLeavesTheTransform) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  for (const auto& tf : {tfOf(0, 0, 0, 0, 1, 1, 1), tfOf(nan, 0, 0, 1), tfOf(0, inf, 0, 1)}) {
+    bdis_stereo::RigidTransform t;
+    t.t[0] = 7.0;
+    EXPECT_EQ(bdis_stereo::rigidTransformFromTf(tf, t), "invalid rotation");
+    EXPECT_EQ(t.t[0], 7.0);
+    EXPECT_EQ(t.r[0], 1.0);
+  }
+}

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -51,15 +52,22 @@ struct MatcherParams {
   static std::vector<std::string> presetNames();
 };
 
-/// Describes one field of MatcherParams for generic loaders (YAML, ROS params,
-/// dynamic_reconfigure). Numeric fields of every kind are exposed as double.
-struct ParamField {
-  enum class Type { Int, Float, Bool };
+/// What one parameter accepts: its name, type, range and description. The
+/// matcher's fields (ParamField) and the ROS node's own parameters are both
+/// described this way, so that one set of rules (checkParam) binds them all.
+struct ParamSpec {
+  enum class Type { Int, Float, Bool, String };
   const char* name;
   Type type;
-  double min_value;
+  double min_value;  ///< numeric types only
   double max_value;
   const char* description;
+};
+
+/// Describes one field of MatcherParams for generic loaders (YAML, `--set`,
+/// ROS params, dynamic_reconfigure). Numeric fields of every kind are exposed
+/// as double. `set` converts without checking: bind values with bindParam.
+struct ParamField : ParamSpec {
   std::function<double(const MatcherParams&)> get;
   std::function<void(MatcherParams&, double)> set;
 };
@@ -70,10 +78,84 @@ const std::vector<ParamField>& paramFields();
 /// Returns the field with that name or nullptr.
 const ParamField* findParamField(const std::string& name);
 
+/// The `preset` parameter (a String, one of MatcherParams::presetNames()).
+const ParamSpec& presetSpec();
+
+/// What a preset trades, one line (for dynamic_reconfigure and the docs);
+/// throws std::invalid_argument for an unknown name.
+const char* presetDescription(const std::string& name);
+
+/// A parameter value as its source gave it: a YAML scalar, a `--set` text, a
+/// ROS parameter server value, a dynamic_reconfigure field.
+struct ParamValue {
+  enum class Kind { Bool, Integer, Real, String, Other };
+  Kind kind = Kind::Other;
+  bool boolean = false;
+  long long integer = 0;
+  double real = 0.0;
+  std::string text;  ///< String: the text; Other: what the value is ("a list")
+
+  static ParamValue ofBool(bool v);
+  static ParamValue ofInteger(long long v);
+  static ParamValue ofReal(double v);
+  static ParamValue ofString(std::string v);
+  static ParamValue ofOther(std::string what);
+  /// An untyped text (the command line) read as a YAML scalar would be:
+  /// a boolean word (isBoolWord), else an integer, else a real number
+  /// (including nan, inf, .nan, .inf), else a string.
+  static ParamValue fromText(const std::string& text);
+  /// The YAML 1.1 boolean words, which the ROS parameter server (PyYAML) reads
+  /// as booleans: true/false, yes/no, on/off, each lower, Capitalised or UPPER.
+  /// Sets `value` and returns true when `text` is one.
+  static bool isBoolWord(const std::string& text, bool& value);
+
+  /// As in messages: true, 2, 2.5, 3.0, nan, 'text', (a list).
+  std::string str() const;
+};
+
+/// A value a source gave that a parameter does not accept. what() is
+/// "SOURCE: DETAIL"; detail() alone reads "parameter NAME = VALUE ...".
+class ParamError : public std::invalid_argument {
+ public:
+  ParamError(const std::string& source, const std::string& detail);
+  const std::string& source() const { return source_; }
+  const std::string& detail() const { return detail_; }
+
+ private:
+  std::string source_, detail_;
+};
+
+/// The one set of rules for every source (YAML files, `--set`, the ROS
+/// parameter server, dynamic_reconfigure): returns `value` as `spec`'s type
+/// holds it (Bool, Integer, Real or String kind) or throws ParamError naming
+/// `source`, the parameter, the value and its description.
+///  - Bool takes a boolean only. Numbers are refused everywhere: the ROS
+///    parameter server types a YAML 0 or 1 as an integer, so a file that said
+///    `compute_variance: 1` would load in one place and not in another.
+///  - Int takes an integer, or a real number without a fraction (3.0);
+///    2.5 is an error ("must be a whole number").
+///  - Float takes an integer or a real number.
+///  - NaN and infinity are refused ("is not a finite number"), then the range
+///    [min_value, max_value] is checked ("is out of range [lo, hi]").
+///  - String takes a string only.
+ParamValue checkParam(const ParamSpec& spec, const ParamValue& value, const std::string& source);
+
+/// checkParam, then the value stored in `field` of `params`.
+void bindParam(MatcherParams& params, const ParamField& field, const ParamValue& value,
+               const std::string& source);
+/// The same by name; an unknown name is a ParamError ("unknown parameter 'x'").
+void bindParam(MatcherParams& params, const std::string& name, const ParamValue& value,
+               const std::string& source);
+
+/// The named preset's parameters for a `preset` value; ParamError (naming
+/// `source` and the valid names) for an unknown name or a value that is no string.
+MatcherParams bindPreset(const ParamValue& value, const std::string& source);
+
 /// Reads a YAML (or JSON) file of `name: value` pairs on top of `base`.
-/// A `preset: NAME` key, if present, is applied first. Unknown keys and values
-/// of the wrong type throw std::invalid_argument naming the key and the file;
-/// the result is validated.
+/// A `preset: NAME` key, if present, is applied first. Every value is bound
+/// with bindParam (source "parameter file PATH"); unknown keys, bad values and
+/// an empty file throw std::invalid_argument naming the file (ParamError for
+/// a value); the result is validated.
 MatcherParams loadParams(const std::string& path, const MatcherParams& base = MatcherParams{});
 
 /// One line per field, `name: value`, loadable by loadParams.

@@ -1,9 +1,12 @@
 // Disparity to depth and 3-D points for a rectified pair.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -237,6 +240,169 @@ TEST(GeometryPoints, WorkOnMatcherOutput) {
     }
   }
   EXPECT_GT(checked, 1000);
+}
+
+// ---- Point clouds into a byte buffer -------------------------------------------
+
+// Disparities over the whole range (estimates, no estimate, at and beyond
+// infinity, NaN), and their depth.
+cv::Mat mixedDisparity(int rows, int cols, uint64_t seed) {
+  cv::RNG rng(seed);
+  cv::Mat d(rows, cols, CV_32FC1);
+  for (int y = 0; y < rows; ++y) {
+    for (int x = 0; x < cols; ++x) {
+      const int kind = rng.uniform(0, 10);
+      float v = rng.uniform(0.f, 80.f);
+      if (kind == 0) v = kNoDisparity;
+      if (kind == 1) v = 2.0f;  // at infinity for cloudCamera()
+      if (kind == 2) v = kNaNf;
+      d.at<float>(y, x) = v;
+    }
+  }
+  return d;
+}
+
+StereoCamera cloudCamera() {
+  StereoCamera c = StereoCamera::symmetric(520, 500, 3.5, 2.25, 0.5);
+  c.cx_right = 1.5;
+  return c;
+}
+
+struct Record {
+  float x, y, z;
+  uint32_t rgb;
+};
+
+Record readRecord(const std::vector<uint8_t>& buffer, std::size_t offset, bool colour) {
+  Record r{};
+  std::memcpy(&r, buffer.data() + offset, colour ? 16 : 12);
+  return r;
+}
+
+bool sameFloat(float a, float b) { return (std::isnan(a) && std::isnan(b)) || a == b; }
+
+uint32_t packed(const cv::Vec3b& bgr) { return (uint32_t(bgr[2]) << 16) | (uint32_t(bgr[1]) << 8) | bgr[0]; }
+
+// Organised: every pixel in raster order, bit-identical to disparityToPoints,
+// for widths that exercise the four-point path and its scalar tail, with and
+// without colour, at the packed and at a padded point_step (the padding bytes
+// stay as they were).
+TEST(GeometryCloud, OrganisedRecordsEqualDisparityToPoints) {
+  const StereoCamera camera = cloudCamera();
+  for (const int width : {1, 4, 5, 8, 37}) {
+    const cv::Mat disparity = mixedDisparity(7, width, static_cast<uint64_t>(width));
+    cv::Mat depth, points;
+    bdis::disparityToDepth(disparity, camera, depth);
+    bdis::disparityToPoints(disparity, camera, points);
+    cv::Mat bgr(disparity.size(), CV_8UC3);
+    cv::randu(bgr, 0, 256);
+    EXPECT_EQ(bdis::pointCount(depth, true), depth.total());
+    for (const bool colour : {true, false}) {
+      for (const std::size_t step :
+           {colour ? bdis::kColouredPointBytes : bdis::kPointBytes, std::size_t{24}}) {
+        SCOPED_TRACE("width " + std::to_string(width) + ", colour " + std::to_string(colour) + ", step " +
+                     std::to_string(step));
+        std::vector<uint8_t> buffer(depth.total() * step, 0xAB);
+        bdis::writePointCloud(depth, camera, colour ? bgr : cv::Mat(), true, nullptr, step, buffer.data());
+        for (int y = 0; y < depth.rows; ++y) {
+          for (int x = 0; x < depth.cols; ++x) {
+            const std::size_t offset = (static_cast<std::size_t>(y) * width + x) * step;
+            const Record r = readRecord(buffer, offset, colour);
+            const cv::Vec3f q = points.at<cv::Vec3f>(y, x);
+            EXPECT_TRUE(sameFloat(r.x, q[0]) && sameFloat(r.y, q[1]) && sameFloat(r.z, q[2]))
+                << "at " << x << ", " << y;
+            if (colour) {
+              EXPECT_EQ(r.rgb, packed(bgr.at<cv::Vec3b>(y, x))) << "at " << x << ", " << y;
+            }
+            const std::size_t used = colour ? 16 : 12;
+            for (std::size_t b = used; b < step; ++b)
+              ASSERT_EQ(buffer[offset + b], 0xAB) << "padding written";
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST(GeometryCloud, DenseKeepsOnlyThePointsWithDepthInRasterOrder) {
+  const StereoCamera camera = cloudCamera();
+  const cv::Mat disparity = mixedDisparity(9, 13, 5);
+  cv::Mat depth, points;
+  bdis::disparityToDepth(disparity, camera, depth);
+  bdis::disparityToPoints(disparity, camera, points);
+  std::vector<cv::Vec3f> expected;
+  for (int y = 0; y < points.rows; ++y) {
+    for (int x = 0; x < points.cols; ++x) {
+      if (!std::isnan(points.at<cv::Vec3f>(y, x)[2])) expected.push_back(points.at<cv::Vec3f>(y, x));
+    }
+  }
+  ASSERT_GT(expected.size(), 20u);
+  ASSERT_LT(expected.size(), depth.total());
+  ASSERT_EQ(bdis::pointCount(depth, false), expected.size());
+  std::vector<uint8_t> buffer(expected.size() * bdis::kPointBytes);
+  bdis::writePointCloud(depth, camera, cv::Mat(), false, nullptr, bdis::kPointBytes, buffer.data());
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    const Record r = readRecord(buffer, i * bdis::kPointBytes, false);
+    EXPECT_EQ(r.x, expected[i][0]) << i;
+    EXPECT_EQ(r.y, expected[i][1]) << i;
+    EXPECT_EQ(r.z, expected[i][2]) << i;
+  }
+}
+
+TEST(GeometryCloud, TransformMapsEveryPointAndKeepsUnknownsNaN) {
+  const StereoCamera camera = cloudCamera();
+  const cv::Mat disparity = mixedDisparity(6, 11, 9);
+  cv::Mat depth, points;
+  bdis::disparityToDepth(disparity, camera, depth);
+  bdis::disparityToPoints(disparity, camera, points);
+  bdis::RigidTransform t;  // 90 degrees about z, then (1, -2, 0.5)
+  const double r[9] = {0, -1, 0, 1, 0, 0, 0, 0, 1};
+  std::copy(r, r + 9, t.r);
+  t.t[0] = 1.0;
+  t.t[1] = -2.0;
+  t.t[2] = 0.5;
+  cv::Mat bgr(disparity.size(), CV_8UC3, cv::Scalar(10, 20, 30));
+  for (const bool organized : {true, false}) {
+    SCOPED_TRACE(organized ? "organised" : "dense");
+    std::vector<uint8_t> buffer(bdis::pointCount(depth, organized) * 16);
+    bdis::writePointCloud(depth, camera, bgr, organized, &t, 16, buffer.data());
+    std::size_t i = 0;
+    for (int y = 0; y < depth.rows; ++y) {
+      for (int x = 0; x < depth.cols; ++x) {
+        const cv::Vec3f p = points.at<cv::Vec3f>(y, x);
+        if (std::isnan(p[2]) && !organized) continue;
+        const Record rec = readRecord(buffer, 16 * i++, true);
+        EXPECT_EQ(rec.rgb, (30u << 16) | (20u << 8) | 10u);
+        if (std::isnan(p[2])) {
+          EXPECT_TRUE(std::isnan(rec.x) && std::isnan(rec.y) && std::isnan(rec.z));
+          continue;
+        }
+        EXPECT_NEAR(rec.x, -p[1] + 1.0, 1e-4 * std::abs(p[2]) + 1e-5);
+        EXPECT_NEAR(rec.y, p[0] - 2.0, 1e-4 * std::abs(p[2]) + 1e-5);
+        EXPECT_NEAR(rec.z, p[2] + 0.5, 1e-4 * std::abs(p[2]) + 1e-5);
+      }
+    }
+    EXPECT_EQ(i * 16, buffer.size());
+  }
+}
+
+TEST(GeometryCloud, RefusesWhatItCannotWrite) {
+  const StereoCamera camera = cloudCamera();
+  const cv::Mat depth(4, 5, CV_32FC1, cv::Scalar(2.f));
+  std::vector<uint8_t> buffer(4 * 5 * 32);
+  auto write = [&](const cv::Mat& d, const cv::Mat& bgr, std::size_t step) {
+    return invalidArgumentMessage(
+        [&] { bdis::writePointCloud(d, camera, bgr, true, nullptr, step, buffer.data()); });
+  };
+  EXPECT_TRUE(contains(write(cv::Mat(4, 5, CV_64FC1, cv::Scalar(2.0)), cv::Mat(), 12), "CV_32FC1"));
+  EXPECT_TRUE(contains(write(depth, cv::Mat(), 8), "point_step 8"));
+  EXPECT_TRUE(contains(write(depth, cv::Mat(4, 5, CV_8UC3), 12), "point_step 12"));
+  EXPECT_TRUE(contains(write(depth, cv::Mat(4, 5, CV_8UC1), 16), "CV_8UC3"));
+  EXPECT_TRUE(contains(write(depth, cv::Mat(5, 5, CV_8UC3), 16), "CV_8UC3"));
+  StereoCamera bad = camera;
+  bad.fx = 0;
+  EXPECT_THROW(bdis::writePointCloud(depth, bad, cv::Mat(), true, nullptr, 12, buffer.data()),
+               std::invalid_argument);
 }
 
 }  // namespace

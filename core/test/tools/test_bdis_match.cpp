@@ -273,12 +273,30 @@ TEST_F(BdisMatchTest, UnknownPreset) {
   expectFailure(run({path("l.png"), path("r.png"), path("d.png"), "--preset", "turbo"}), "turbo");
 }
 
+TEST_F(BdisMatchTest, SetTakesTypedValues) {
+  writePair(path("l.png"), path("r.png"));
+  // A whole real for an int field, a YAML boolean word, an integer for a float field.
+  const RunResult r = run({path("l.png"), path("r.png"), path("d.png"), "--set", "iterations=3.0", "--set",
+                           "propagation=yes", "--set", "sigma_r=1", "--set", "mean_normalization=true"});
+  ASSERT_TRUE(r.exited());
+  ASSERT_EQ(r.code(), 0) << r.err;
+  EXPECT_NEAR(interiorMedian(bdis::readDisparityPng(path("d.png"))), kShift, 0.25);
+}
+
 TEST_F(BdisMatchTest, BadSet) {
   writePair(path("l.png"), path("r.png"));
   const std::string l = path("l.png"), r = path("r.png"), d = path("d.png");
   expectFailure(run({l, r, d, "--set", "no_such_param=1"}), "no_such_param");
   expectFailure(run({l, r, d, "--set", "iterations=abc"}), "iterations");
-  expectFailure(run({l, r, d, "--set", "iterations=nan"}), "out of range");  // NaN: no range test passes
+  expectFailure(run({l, r, d, "--set", "iterations=nan"}),
+                "--set: parameter iterations = nan is not a finite number");
+  // The same rules as parameter files and the ROS node: no silent rounding, no numbers for booleans.
+  expectFailure(run({l, r, d, "--set", "iterations=2.5"}),
+                "--set: parameter iterations = 2.5 must be a whole number");
+  expectFailure(run({l, r, d, "--set", "compute_variance=1"}), "compute_variance = 1 must be true or false");
+  expectFailure(run({l, r, d, "--set", "patch_size=33"}),
+                "patch_size = 33 is out of range [4, 32]: patch side");
+  EXPECT_FALSE(fs::exists(d));
   expectFailure(run({l, r, d, "--set", "iterations"}), "NAME=VALUE");
   expectFailure(run({l, r, d, "--set"}), "--set needs a value");
 }
@@ -293,6 +311,10 @@ TEST_F(BdisMatchTest, BadParamsFile) {
   const RunResult g = run({l, r, d, "--params", path("garbage.yaml")});
   expectFailure(g, "garbage.yaml");
   EXPECT_EQ(std::count(g.err.begin(), g.err.end(), '\n'), 1) << g.err;  // one line
+  std::ofstream(path("empty.yaml")) << "";
+  expectFailure(run({l, r, d, "--params", path("empty.yaml")}), path("empty.yaml") + " is empty");
+  std::ofstream(path("fraction.yaml")) << "iterations: 2.5\n";
+  expectFailure(run({l, r, d, "--params", path("fraction.yaml")}), "iterations = 2.5 must be a whole number");
   EXPECT_FALSE(fs::exists(d));
 }
 

@@ -1,0 +1,160 @@
+#include "frame_pipeline.hpp"
+
+#include <sstream>
+#include <utility>
+
+#include <geometry_msgs/TransformStamped.h>
+#include <opencv2/imgproc.hpp>
+
+#include "bdis_stereo/pair_check.hpp"
+#include "ros_frame.hpp"
+
+namespace bdis_stereo {
+
+FramePipeline::FramePipeline(std::string log_name, const NodeParams& params,
+                             const bdis::MatcherParams& matcher_params, ros::NodeHandle& nh, Outputs& outputs,
+                             NodeStatistics& statistics, MatcherReconfigure& reconfigure)
+    : log_name_(std::move(log_name)),
+      params_(params),
+      outputs_(outputs),
+      statistics_(statistics),
+      reconfigure_(reconfigure),
+      matcher_(matcher_params) {
+  if (!params_.target_frame.empty()) {
+    tf_buffer_.reset(new tf2_ros::Buffer(ros::Duration(10.0)));
+    tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_, nh));
+  }
+}
+
+void FramePipeline::process(const StereoFrame& frame) {
+  noteStamp(frame.left->header.stamp);
+  // Validate before anything that asserts or throws sees the frame.
+  bdis::StereoCamera camera;
+  const std::string error = validate(frame, camera);
+  if (!error.empty()) {
+    reject(error);
+    return;
+  }
+  const WantedOutputs wanted = outputs_.wanted();  // compute only what is wanted
+  if (!wanted.any()) return;
+  bdis::MatcherParams changed;
+  if (reconfigure_.takeChange(changed)) matcher_.setParams(changed);  // validated by reconfigure_
+
+  const ros::WallTime start = ros::WallTime::now();
+  const MatcherInput input = matcherInput(frame);
+  if (camerasLookSwapped(input, start)) return;
+  matcher_.compute(input.left, input.right, result_);
+  publish(frame, camera, input, wanted);
+
+  const ros::WallTime end = ros::WallTime::now();
+  statistics_.frameOut((end - start).toSec() * 1e3, (end - frame.arrival).toSec() * 1e3);
+}
+
+void FramePipeline::noteStamp(const ros::Time& stamp) {
+  if (!last_stamp_.isZero() && stamp < last_stamp_) {
+    // Time went back (InputSync has said so): transforms stamped in the
+    // "future" would serve the new frames wrongly, and the new stream
+    // (another bag?) gets its cameras checked at once.
+    if (tf_buffer_) tf_buffer_->clear();
+    last_sign_check_ = ros::WallTime();
+  }
+  last_stamp_ = stamp;
+}
+
+std::string FramePipeline::validate(const StereoFrame& frame, bdis::StereoCamera& camera) const {
+  const auto max_pixels = static_cast<std::size_t>(params_.max_image_pixels);
+  std::string error = checkImage(*frame.left, "left", max_pixels);
+  if (error.empty()) error = checkImage(*frame.right, "right", max_pixels);
+  if (error.empty()) error = checkImagePair(*frame.left, *frame.right);
+  if (error.empty()) {
+    error = stereoCameraFromInfo(*frame.left_info, *frame.right_info, static_cast<int>(frame.left->width),
+                                 static_cast<int>(frame.left->height), camera);
+  }
+  return error;
+}
+
+FramePipeline::MatcherInput FramePipeline::matcherInput(const StereoFrame& frame) {
+  MatcherInput input;
+  input.left = matcherView(*frame.left, left_buffer_);
+  input.right = matcherView(*frame.right, right_buffer_);
+  if (input.left.channels() == 3) input.left_colour = input.left;
+  if (input.left.channels() != input.right.channels()) {  // one mono, one colour: match in grey
+    cv::Mat& colour = input.left.channels() == 3 ? input.left : input.right;
+    cv::cvtColor(colour, grey_buffer_, cv::COLOR_BGR2GRAY);
+    colour = grey_buffer_;
+  }
+  return input;
+}
+
+// Swapped cameras with correct camera_infos pass every check of validate();
+// the matcher (d >= 0 only) would publish garbage. A coarse search of both
+// signs tells (about 2 ms at 640x480): on the first frame, then once a second
+// (a swap is a setup error, there from the start) and on every frame while it fails.
+bool FramePipeline::camerasLookSwapped(const MatcherInput& input, ros::WallTime now) {
+  if (!looks_swapped_ && (now - last_sign_check_).toSec() < kSignCheckPeriod) return false;
+  const bdis::DisparitySignCheck sign = bdis::checkDisparitySign(input.left, input.right);
+  last_sign_check_ = now;
+  looks_swapped_ = sign.looksSwapped();
+  if (looks_swapped_) {
+    std::ostringstream os;
+    os << sign.negative << " of " << sign.distinct_patches
+       << " distinct matches lie at negative disparity (the scene is further right in the left image "
+          "than in the right one): are the cameras swapped? Check the left/right topic remaps";
+    reject(os.str());
+  }
+  return looks_swapped_;
+}
+
+// Every output carries the left image's stamp and frame.
+void FramePipeline::publish(const StereoFrame& frame, const bdis::StereoCamera& camera,
+                            const MatcherInput& input, const WantedOutputs& wanted) {
+  const std_msgs::Header& header = frame.left->header;
+  if (wanted.disparity || wanted.disparity_image) {
+    outputs_.publishDisparity(header, result_.disparity, camera, wanted);
+  }
+  // The depth image: the published message's when there is one, else
+  // computed for points2 alone.
+  cv::Mat depth;
+  if (wanted.depth) depth = outputs_.publishDepth(header, result_.disparity, camera, *frame.left_info);
+  if (wanted.confidence) outputs_.publishConfidence(header, result_.confidence);
+  if (wanted.variance && !result_.variance.empty()) outputs_.publishVariance(header, result_.variance);
+  if (wanted.points) publishPoints(header, depth, camera, input.left_colour);
+}
+
+void FramePipeline::publishPoints(const std_msgs::Header& header, cv::Mat depth,
+                                  const bdis::StereoCamera& camera, const cv::Mat& left_colour) {
+  RigidTransform transform;
+  const bool transformed = cloudTransform(header, transform);
+  if (depth.empty()) {
+    bdis::disparityToDepth(result_.disparity, camera, depth_buffer_);
+    depth = depth_buffer_;
+  }
+  outputs_.publishPoints(header, depth, camera, left_colour, params_.organized_cloud,
+                         transformed ? &transform : nullptr, params_.target_frame);
+}
+
+// The transform into target_frame at the image's stamp, waiting at most
+// tf_timeout; false (and a throttled warning) without one: the cloud then
+// stays in the camera frame.
+bool FramePipeline::cloudTransform(const std_msgs::Header& header, RigidTransform& transform) const {
+  if (params_.target_frame.empty() || params_.target_frame == header.frame_id) return false;
+  std::string error;
+  try {
+    const geometry_msgs::TransformStamped tf = tf_buffer_->lookupTransform(
+        params_.target_frame, header.frame_id, header.stamp, ros::Duration(params_.tf_timeout));
+    error = rigidTransformFromTf(tf, transform);
+  } catch (const tf2::TransformException& e) {
+    error = e.what();
+  }
+  if (error.empty()) return true;
+  ROS_WARN_THROTTLE_NAMED(5.0, log_name_, "no transform %s <- %s at %.3f (%s): publishing points2 in %s",
+                          params_.target_frame.c_str(), header.frame_id.c_str(), header.stamp.toSec(),
+                          error.c_str(), header.frame_id.c_str());
+  return false;
+}
+
+void FramePipeline::reject(const std::string& what) {
+  if (statistics_.rejected(what)) ROS_ERROR_NAMED(log_name_, "frame dropped: %s", what.c_str());
+}
+
+}  // namespace bdis_stereo
