@@ -22,7 +22,7 @@ prepare_ros_run
 
 work="$(mktemp -d /tmp/bdis_bench_node.XXXXXX)"
 trap 'rm -rf "$work"' EXIT
-sample="$("$PYTHON_EXE" -c "from catkin.find_in_workspaces import find_in_workspaces as f; print(f(search_dirs=['share'], project='bdis_stereo', path='sample', first_match_only=True)[0])")"
+sample="$(bdis_common sample-dir)"
 # One frame_id for both cameras: stereo_image_proc aborts on differing ones
 # (image_geometry asserts), bdis_stereo accepts either.
 rosrun bdis_stereo bdis_make_bag "$sample" "$work/sample.bag" --rate 30 --right-frame stereo_left_optical >/dev/null

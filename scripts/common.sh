@@ -113,7 +113,11 @@ prepare_ros_run() {
   unset ROS_HOSTNAME
 }
 
-# A TCP port free on loopback now (for a master of our own).
-free_port() {
-  "$PYTHON_EXE" -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
+# The Python helpers shared with bdis_demo, bdis_make_bag and the tests
+# (scripts/bdis_common.py): free-port, sample-dir, wait-master, wait-nodelet.
+bdis_common() {
+  "$PYTHON_EXE" "$REPO_DIR/scripts/bdis_common.py" "$@"
 }
+
+# A TCP port free on loopback now (for a master of our own).
+free_port() { bdis_common free-port; }

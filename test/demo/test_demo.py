@@ -24,19 +24,13 @@ import cv2
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(REPO, "scripts"))
+import bdis_common as common  # noqa: E402
 import rviz_screenshot  # noqa: E402
 
-REPO = os.path.dirname(os.path.dirname(HERE))
 SAMPLE_FRAMES = 30
-
-
-def tool(name):
-    import roslib.packages
-    found = roslib.packages.find_node("bdis_stereo", name)
-    if not found:
-        raise AssertionError("%s is not built or the workspace is not sourced" % name)
-    return found[0]
 
 
 def session_processes(sid):
@@ -55,8 +49,8 @@ class DemoRun:
 
     def __init__(self, out_dir, args, env=None):
         self.out_dir = out_dir
-        self.proc = subprocess.Popen([sys.executable, tool("bdis_demo"), "--out", out_dir] + args,
-                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        self.proc = subprocess.Popen([sys.executable, common.find_program("bdis_demo"), "--out", out_dir]
+                                     + args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                                      env=env, start_new_session=True)
         self.output = ""
 
@@ -198,13 +192,9 @@ class TestDemo(unittest.TestCase):
         self.assertLess(error["centre_cloud_share"], 0.1)
 
     def test_4_user_bag_with_remapped_topics(self):
-        sample = subprocess.run([sys.executable, "-c", "from catkin.find_in_workspaces import "
-                                 "find_in_workspaces as f; print(f(search_dirs=['share'], "
-                                 "project='bdis_stereo', path='sample', first_match_only=True)[0])"],
-                                stdout=subprocess.PIPE, text=True, check=True).stdout.strip()
         bag = os.path.join(self.tmp, "user.bag")
-        subprocess.run([tool("bdis_make_bag"), sample, bag, "--rate", "10", "--ns", "/endoscope",
-                        "--mono"], check=True, stdout=subprocess.DEVNULL)
+        subprocess.run([common.find_program("bdis_make_bag"), common.sample_dir(), bag, "--rate", "10",
+                        "--ns", "/endoscope", "--mono"], check=True, stdout=subprocess.DEVNULL)
         run = self.run_demo("bag", ["--bag", bag,
                                     "--left-image", "/endoscope/left/image_rect",
                                     "--right-image", "/endoscope/right/image_rect",
