@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
-# The node under load (issue "speed", target 4): the embedded sample as a bag
-# replayed at 60 Hz (restamped at publish time) into bdis_stereo (nodelet in a
-# manager pinned to one core; disparity, depth and points2 subscribed) and, in
-# the same run, into stereo_image_proc (disparity + point_cloud2 nodelets,
-# StereoBM and StereoSGBM) as the ROS reference. Prints one table; latency =
-# arrival of a frame's last output at the bench minus its stamp.
+# The node under load: the embedded sample as a bag replayed at 60 Hz
+# (restamped at publish time) into bdis_stereo (nodelet in a manager pinned to
+# one core; disparity, depth and points2 subscribed) and, in the same run, into
+# stereo_image_proc (disparity + point_cloud2 nodelets, StereoBM and
+# StereoSGBM) as the ROS reference. Prints one table; latency = arrival of a
+# frame's last output at the bench minus its stamp.
 #   scripts/bench_node.sh [--rate HZ] [--seconds S] [--json FILE]
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
