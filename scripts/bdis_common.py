@@ -1,7 +1,7 @@
 """What the package's Python programs and tests share, written once: a free
 port, the package's programs and embedded sample, camera.yaml, sensor_msgs
-builders, waiting for a condition, what the ROS master knows, and stopping a
-process group. Installed beside bdis_demo and bdis_make_bag, which import it by
+to and from numpy, waiting for a condition, what the ROS master knows, and
+stopping a process group. Installed beside bdis_demo and bdis_make_bag, which import it by
 path, as do the tests (test/demo, test/ros); the shell scripts reach it through
 scripts/common.sh, which runs it as a command:
 
