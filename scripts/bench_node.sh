@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
-# The node under load (issue "speed", target 4): the embedded sample as a bag
-# replayed at 60 Hz (restamped at publish time) into bdis_stereo (nodelet in a
-# manager pinned to one core; disparity, depth and points2 subscribed) and, in
-# the same run, into stereo_image_proc (disparity + point_cloud2 nodelets,
-# StereoBM and StereoSGBM) as the ROS reference. Prints one table; latency =
-# arrival of a frame's last output at the bench minus its stamp.
+# The node under load: the embedded sample as a bag replayed at 60 Hz
+# (restamped at publish time) into bdis_stereo (nodelet in a manager pinned to
+# one core; disparity, depth and points2 subscribed) and, in the same run, into
+# stereo_image_proc (disparity + point_cloud2 nodelets, StereoBM and
+# StereoSGBM) as the ROS reference. Prints one table; latency = arrival of a
+# frame's last output at the bench minus its stamp.
 #   scripts/bench_node.sh [--rate HZ] [--seconds S] [--json FILE]
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
@@ -22,7 +22,7 @@ prepare_ros_run
 
 work="$(mktemp -d /tmp/bdis_bench_node.XXXXXX)"
 trap 'rm -rf "$work"' EXIT
-sample="$("$PYTHON_EXE" -c "from catkin.find_in_workspaces import find_in_workspaces as f; print(f(search_dirs=['share'], project='bdis_stereo', path='sample', first_match_only=True)[0])")"
+sample="$(bdis_common sample-dir)"
 # One frame_id for both cameras: stereo_image_proc aborts on differing ones
 # (image_geometry asserts), bdis_stereo accepts either.
 rosrun bdis_stereo bdis_make_bag "$sample" "$work/sample.bag" --rate 30 --right-frame stereo_left_optical >/dev/null

@@ -109,11 +109,41 @@ prepare_ros_run() {
     build_package
   fi
   source_workspace
+  ros_on_loopback
+}
+
+# ROS nodes started from here talk over loopback only.
+ros_on_loopback() {
   export ROS_IP=127.0.0.1
   unset ROS_HOSTNAME
 }
 
-# A TCP port free on loopback now (for a master of our own).
-free_port() {
-  "$PYTHON_EXE" -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
+# run_rostest TEST_FILE RESULTS_DIR [WHAT]: one test/ros/*.test under rostest
+# (a master of its own on a free port), its output in
+# RESULTS_DIR/rostest-NAME.log, whose end is shown when it fails (status 1).
+# WHAT, if given, names the run in the messages.
+run_rostest() {
+  local name rostest_log
+  name="$(basename "$1" .test)"
+  rostest_log="$2/rostest-$name.log"
+  log "rostest $name.test${3:+ ($3)}"
+  if ! rostest --results-base-dir "$2" bdis_stereo "$name.test" >"$rostest_log" 2>&1; then
+    tail -n 40 "$rostest_log"
+    log "rostest $name.test failed${3:+ ($3)} (full log: $rostest_log)"
+    return 1
+  fi
 }
+
+# junit_case OUT.xml SUITE NAME [...]: one JUnit test case (scripts/junit_case.py).
+junit_case() {
+  "$PYTHON_EXE" "$REPO_DIR/scripts/junit_case.py" "$@"
+}
+
+# The Python helpers shared with bdis_demo, bdis_make_bag and the tests
+# (scripts/bdis_common.py): free-port, sample-dir, wait-master, wait-nodelet.
+bdis_common() {
+  "$PYTHON_EXE" "$REPO_DIR/scripts/bdis_common.py" "$@"
+}
+
+# A TCP port free on loopback now (for a master of our own).
+free_port() { bdis_common free-port; }

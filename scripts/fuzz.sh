@@ -17,14 +17,13 @@ FUZZ_SECONDS="${BDIS_FUZZ_SECONDS:-60}"
 BUILD_DIR="$WS_DIR/fuzz"
 ARTIFACTS_DIR="$BUILD_DIR/artifacts"
 FUZZER="$BUILD_DIR/fuzz_matcher"
-JUNIT_CASE=("$PYTHON_EXE" "$REPO_DIR/scripts/junit_case.py")
 
 # result NAME [junit_case.py options]: one JUnit case when RESULTS_DIR is given.
 result() {
   local name="$1"
   shift
   [ -n "$RESULTS_DIR" ] || return 0
-  "${JUNIT_CASE[@]}" "$RESULTS_DIR/fuzz-$name.xml" fuzz.fuzz_matcher "$name" "$@"
+  junit_case "$RESULTS_DIR/fuzz-$name.xml" fuzz.fuzz_matcher "$name" "$@"
 }
 
 clangxx=""

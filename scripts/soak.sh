@@ -50,7 +50,7 @@ rosrun bdis_stereo bdis_make_bag "$work/seq" "$work/seq.bag" --rate 30 >/dev/nul
 
 roscore -p "$port" >"$work/roscore.log" 2>&1 &
 pids+=($!)
-for _ in $(seq 100); do rostopic list >/dev/null 2>&1 && break; sleep 0.2; done
+bdis_common wait-master --timeout 60
 
 node_core=$(( $(nproc) > 1 ? 1 : 0 ))
 taskset -c "$node_core" rosrun nodelet nodelet manager __name:=manager __ns:=/stereo >"$work/manager.log" 2>&1 &
@@ -59,26 +59,18 @@ pids+=("$manager")
 
 # Loaded = its dynamic_reconfigure topics are advertised (the manager's list
 # service needs nodelet's Python messages, which Debian does not package).
-nodelet_loaded() { rostopic list 2>/dev/null | grep -qx /stereo/bdis_stereo/parameter_descriptions; }
 load_nodelet() {
   rosrun nodelet nodelet load bdis_stereo/BdisStereoNodelet /stereo/manager __name:=bdis_stereo \
       __ns:=/stereo >>"$work/loader.log" 2>&1 &
   loader=$!
-  for _ in $(seq 100); do
-    nodelet_loaded && return 0
-    sleep 0.1
-  done
-  log "the nodelet did not load; manager log:"; tail -n 20 "$work/manager.log" >&2
+  bdis_common wait-nodelet /stereo/bdis_stereo --timeout 60 && return 0
+  log "manager log:"; tail -n 20 "$work/manager.log" >&2
   exit 1
 }
 unload_nodelet() {
   kill -INT "$loader"
   wait "$loader" 2>/dev/null || true  # 130 after SIGINT
-  for _ in $(seq 100); do
-    nodelet_loaded || return 0
-    sleep 0.1
-  done
-  log "the nodelet did not unload"; exit 1
+  bdis_common wait-nodelet /stereo/bdis_stereo --unloaded --timeout 60 || exit 1
 }
 rss_kb() { awk '/^VmRSS/ {print $2}' "/proc/$manager/status"; }
 threads() { ls "/proc/$manager/task" | wc -l; }

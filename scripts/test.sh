@@ -26,19 +26,11 @@ done
 # free port, so parallel runs cannot collide), the nodelet loaded in a manager.
 # Results land in the same folder: the test node's cases plus one case per
 # .test file that fails if the test node crashed or wrote no results.
-export ROS_IP=127.0.0.1   # loopback only
-unset ROS_HOSTNAME
+ros_on_loopback
 if command -v rostest >/dev/null 2>&1; then
   for test_file in "$REPO_DIR"/test/ros/*.test; do
     [ -e "$test_file" ] || continue
-    name="$(basename "$test_file")"
-    log "rostest $name"
-    if ! rostest --results-base-dir "$RESULTS_DIR" bdis_stereo "$name" \
-        >"$RESULTS_DIR/rostest-${name%.test}.log" 2>&1; then
-      status=1
-      tail -n 40 "$RESULTS_DIR/rostest-${name%.test}.log"
-      log "rostest $name failed (full log: $RESULTS_DIR/rostest-${name%.test}.log)"
-    fi
+    run_rostest "$test_file" "$RESULTS_DIR" || status=1
   done
 elif [ "${CI:-}" = "true" ]; then
   log "rostest is not installed: the ROS tests cannot run"

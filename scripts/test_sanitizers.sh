@@ -16,7 +16,6 @@ RESULTS_DIR="$1/asan"
 MAIN_WS_DIR="$WS_DIR"
 # Inside the main workspace: ignored by git and never linked as package source.
 WS_DIR="$MAIN_WS_DIR/asan"
-JUNIT_CASE=("$PYTHON_EXE" "$REPO_DIR/scripts/junit_case.py")
 
 # test.sh has sourced the main workspace. Drop its entries from the environment,
 # or the sanitizer workspace would chain onto it (two bdis_stereo packages on
@@ -63,15 +62,15 @@ record_reports() {
     cat "${reports[@]}" >&2
     local details=() report
     for report in "${reports[@]}"; do details+=(--details "$report"); done
-    "${JUNIT_CASE[@]}" "$out" "asan.$name" no_sanitizer_report \
+    junit_case "$out" "asan.$name" no_sanitizer_report \
       --failure "${#reports[@]} sanitizer report(s) in $REPORTS_DIR/$name" "${details[@]}"
     return 1
   elif [ "$results_written" != yes ]; then
-    "${JUNIT_CASE[@]}" "$out" "asan.$name" no_sanitizer_report \
+    junit_case "$out" "asan.$name" no_sanitizer_report \
       --failure "$name wrote no results (crashed?) and no sanitizer report"
     return 1
   fi
-  "${JUNIT_CASE[@]}" "$out" "asan.$name" no_sanitizer_report
+  junit_case "$out" "asan.$name" no_sanitizer_report
 }
 
 # The gtest binaries, as many at a time as there are cores (test_synth alone
@@ -111,13 +110,12 @@ done
 # ASan) load the instrumented nodelet, so they get the ASan runtime preloaded
 # through the launch files' launch-prefix="$(optenv BDIS_LAUNCH_PREFIX)".
 # Nothing else is preloaded: Python nodes and ROS tools run as usual.
-export ROS_IP=127.0.0.1   # loopback only
-unset ROS_HOSTNAME
+ros_on_loopback
 cxx="$(sed -n 's/^CMAKE_CXX_COMPILER:[A-Z]*=//p' "$WS_DIR/build/CMakeCache.txt")"
 asan_runtime="$(readlink -f "$("${cxx:-c++}" -print-file-name=libasan.so)")"
 if [ ! -f "$asan_runtime" ]; then
   log "ASan runtime not found (libasan.so of ${cxx:-c++}): cannot run the rostests"
-  "${JUNIT_CASE[@]}" "$RESULTS_DIR/bdis_stereo/sanitizer-rostests.xml" asan.rostests runtime_found \
+  junit_case "$RESULTS_DIR/bdis_stereo/sanitizer-rostests.xml" asan.rostests runtime_found \
     --failure "libasan.so of ${cxx:-c++} not found"
   exit 1
 fi
@@ -125,14 +123,8 @@ export BDIS_LAUNCH_PREFIX="env LD_PRELOAD=$asan_runtime"
 for test_file in "$REPO_DIR"/test/ros/*.test; do
   [ -e "$test_file" ] || continue
   name="$(basename "$test_file" .test)"
-  log "rostest $name.test (ASan + UBSan)"
   sanitizer_environment "rostest-$name"
-  rostest_log="$RESULTS_DIR/rostest-$name.log"
-  if ! rostest --results-base-dir "$RESULTS_DIR" bdis_stereo "$name.test" >"$rostest_log" 2>&1; then
-    status=1
-    tail -n 40 "$rostest_log"
-    log "rostest $name.test failed under ASan (full log: $rostest_log)"
-  fi
+  run_rostest "$test_file" "$RESULTS_DIR" "ASan + UBSan" || status=1
   # rostest writes its own result file (a failed case when the test node crashed).
   record_reports "rostest-$name" yes || status=1
 done

@@ -1,5 +1,8 @@
 """Helpers of the bdis_stereo rostests: exact synthetic stereo pairs, message
-builders, and subscribers that wait for a condition with a timeout."""
+builders, and subscribers that wait for a condition with a timeout. What the
+demo and the bag tool share with them is in scripts/bdis_common.py."""
+import os
+import sys
 import threading
 import time
 
@@ -8,6 +11,9 @@ import numpy as np
 import rospy
 from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import CameraInfo, Image
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
+import bdis_common as common  # noqa: E402
 
 # Camera of the synthetic pairs: Z = FX * BASELINE / d.
 W, H = 192, 144
@@ -35,55 +41,38 @@ def make_pair(seed=1, colour=True, d=DISPARITY, w=W, h=H):
 
 
 def image_msg(arr, stamp, frame_id=LEFT_FRAME, encoding=None):
-    msg = Image()
-    msg.header.stamp = stamp
-    msg.header.frame_id = frame_id
-    msg.height, msg.width = arr.shape[:2]
-    channels = 1 if arr.ndim == 2 else arr.shape[2]
-    msg.encoding = encoding or {1: "mono8", 3: "bgr8", 4: "bgra8"}[channels]
-    msg.step = msg.width * channels * arr.dtype.itemsize
-    msg.data = arr.tobytes()
-    return msg
+    return common.image_msg(arr, frame_id, stamp, encoding)
 
 
 def info_msg(stamp, frame_id=LEFT_FRAME, tx=0.0, cx=CX, w=W, h=H, fx=FX):
-    msg = CameraInfo()
-    msg.header.stamp = stamp
-    msg.header.frame_id = frame_id
-    msg.width, msg.height = w, h
-    msg.distortion_model = "plumb_bob"
-    msg.D = [0.0] * 5
-    msg.K = [fx, 0, cx, 0, fx, CY, 0, 0, 1]
-    msg.R = [1, 0, 0, 0, 1, 0, 0, 0, 1]
-    msg.P = [fx, 0, cx, tx, 0, fx, CY, 0, 0, 0, 1, 0]
-    return msg
+    return common.camera_info_msg([fx, 0, cx, tx, 0, fx, CY, 0, 0, 0, 1, 0], w, h, frame_id, stamp)
 
 
 def wait_for(condition, timeout, what):
-    """Polls `condition` until true; raises AssertionError naming `what` on timeout."""
-    deadline = time.time() + timeout
-    while time.time() < deadline and not rospy.is_shutdown():
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.02)
-    raise AssertionError("timed out after %.1f s waiting for %s" % (timeout, what))
+    """Polls `condition` until true and returns its value; raises an
+    AssertionError naming `what` on timeout."""
+    return common.wait_for(condition, timeout, what, period=0.02)
 
 
 def publish_until(publish, condition, timeout, what, period=0.5):
     """Publishes (again every `period` s) until `condition` holds: robust against
     a subscription that is still being set up when the first copy goes out."""
-    deadline = time.time() + timeout
-    next_publish = 0.0
-    while time.time() < deadline and not rospy.is_shutdown():
-        if time.time() >= next_publish:
+    next_publish = [0.0]
+
+    def published_and_holds():
+        if time.monotonic() >= next_publish[0]:
             publish()
-            next_publish = time.time() + period
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.02)
-    raise AssertionError("timed out after %.1f s waiting for %s" % (timeout, what))
+            next_publish[0] = time.monotonic() + period
+        return condition()
+    return wait_for(published_and_holds, timeout, what)
+
+
+def wait_nodelet_loaded(name, timeout=30.0):
+    wait_for(lambda: common.nodelet_loaded(name), timeout, "nodelet %s to load" % name)
+
+
+def wait_nodelet_unloaded(name, timeout=30.0):
+    wait_for(lambda: not common.nodelet_loaded(name), timeout, "nodelet %s to unload" % name)
 
 
 class StampSequence(object):
@@ -178,12 +167,7 @@ class StereoInput(object):
 
 def float_image(msg):
     assert msg.encoding == "32FC1", msg.encoding
-    return np.frombuffer(msg.data, dtype=np.float32).reshape(msg.height, msg.step // 4)[:, :msg.width]
+    return common.image_array(msg)
 
 
-def cloud_array(msg):
-    """Structured numpy array of a PointCloud2 with float32 x, y, z [, rgb]."""
-    names = [f.name for f in msg.fields]
-    dtype = np.dtype({"names": names, "formats": ["<f4"] * len(names),
-                      "offsets": [f.offset for f in msg.fields], "itemsize": msg.point_step})
-    return np.frombuffer(msg.data, dtype=dtype).reshape(msg.height, msg.width)
+cloud_array = common.cloud_array  # structured numpy array of a PointCloud2 with float32 x, y, z [, rgb]

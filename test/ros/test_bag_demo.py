@@ -5,7 +5,6 @@ bag, and replays it through demo.launch headless (a roslaunch child of this
 test, on the test's master); the disparity must match the sequence's truth."""
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
@@ -14,7 +13,6 @@ import unittest
 import cv2
 import numpy as np
 import rosbag
-import roslib.packages
 import rospy
 import rostest
 from stereo_msgs.msg import DisparityImage
@@ -32,9 +30,7 @@ def write_sequence(root):
         left, right = u.make_pair(seed=10 + i)
         cv2.imwrite(os.path.join(root, "left", "%06d.png" % i), left)
         cv2.imwrite(os.path.join(root, "right", "%06d.png" % i), right)
-    with open(os.path.join(root, "camera.yaml"), "w") as f:
-        f.write("image_width: %d\nimage_height: %d\nfx: %r\nfy: %r\ncx: %r\ncy: %r\nbaseline: %r\n"
-                % (u.W, u.H, u.FX, u.FX, u.CX, u.CY, u.BASELINE))
+    u.common.write_camera(os.path.join(root, "camera.yaml"), u.W, u.H, u.FX, u.FX, u.CX, u.CY, u.BASELINE)
 
 
 class TestBagDemo(unittest.TestCase):
@@ -45,10 +41,8 @@ class TestBagDemo(unittest.TestCase):
         cls.seq = os.path.join(cls.tmp, "seq")
         cls.bag = os.path.join(cls.tmp, "seq.bag")
         write_sequence(cls.seq)
-        tool = roslib.packages.find_node("bdis_stereo", "bdis_make_bag")
-        assert tool, "bdis_make_bag not found"
-        out = subprocess.run([tool[0], cls.seq, cls.bag, "--rate", "5"], capture_output=True,
-                             text=True, timeout=60)
+        out = subprocess.run([u.common.find_program("bdis_make_bag"), cls.seq, cls.bag, "--rate", "5"],
+                             capture_output=True, text=True, timeout=60)
         assert out.returncode == 0, out.stderr
         cls.tool_output = out.stdout
 
@@ -109,13 +103,7 @@ class TestBagDemo(unittest.TestCase):
                 self.assertEqual(m.header.frame_id, "stereo_left_optical")
         finally:
             disp.close()
-            if proc.poll() is None:
-                os.killpg(proc.pid, signal.SIGINT)
-            try:
-                proc.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                os.killpg(proc.pid, signal.SIGKILL)
-                proc.wait()
+            u.common.stop_process_group(proc, timeout=20)
             log.close()
 
 

@@ -36,9 +36,7 @@ class TestNodeletBasic(unittest.TestCase):
         cls.inputs = u.StereoInput("/stereo")
         cls.rosout = u.RosoutWatcher(MANAGER)  # nodelets log under their manager's name
         cls.left, cls.right = u.make_pair(seed=1)
-        # The nodelet is loaded once its dynamic_reconfigure server is up.
-        u.wait_for(lambda: any(t == NODELET + "/parameter_updates"
-                               for t, _ in rospy.get_published_topics()), 30.0, "the nodelet to load")
+        u.wait_nodelet_loaded(NODELET)
 
     def good_frame(self, stamp=None):
         stamp = stamp or STAMPS.next()

@@ -37,7 +37,8 @@ class LoadedNodelet(object):
              "__name:=bdis", "__ns:=" + ns], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         # Loaded for good once the loader (node <ns>/bdis) holds its bond with
         # the manager: the load call has returned, so SIGINT unloads it.
-        u.wait_for(lambda: self.name in _publishers(MANAGER + "/bond"), 60.0, "nodelet %s to load" % self.name)
+        u.wait_for(lambda: self.name in u.common.publishers(MANAGER + "/bond"), 60.0,
+                   "nodelet %s to load" % self.name)
 
     def close(self):
         self.loader.send_signal(signal.SIGINT)
@@ -46,8 +47,7 @@ class LoadedNodelet(object):
         except subprocess.TimeoutExpired:
             self.loader.kill()
             self.loader.wait()
-        u.wait_for(lambda: self.name + "/parameter_updates" not in
-                   [t for t, _ in rospy.get_published_topics()], 30.0, "nodelet %s to unload" % self.name)
+        u.wait_nodelet_unloaded(self.name)
 
 
 class TestNodeletParams(unittest.TestCase):
@@ -162,15 +162,6 @@ class TestNodeletParams(unittest.TestCase):
         finally:
             client.close()
             node.close()
-
-
-def _publishers(topic):
-    import rosgraph
-    try:
-        pubs, _, _ = rosgraph.Master("/test_nodelet_params").getSystemState()
-    except Exception:  # the master is still coming up
-        return []
-    return next((nodes for t, nodes in pubs if t == topic), [])
 
 
 def _services():

@@ -26,8 +26,7 @@ class TestSyncTf(unittest.TestCase):
         cls.left, cls.right = u.make_pair(seed=3)
         cls.rosout = u.RosoutWatcher("/manager")
         for n in ("/approx/bdis", "/tf/bdis"):
-            u.wait_for(lambda: any(t == n + "/parameter_updates" for t, _ in rospy.get_published_topics()),
-                       30.0, "nodelet %s to load" % n)
+            u.wait_nodelet_loaded(n)
 
     def test_approximate_sync_pairs_offset_stamps(self):
         inputs = u.StereoInput("/approx")

@@ -1,11 +1,15 @@
 """Reads a screenshot of rviz with rviz/bdis_stereo.rviz: where the 3-D view
 is, how much of it the cloud covers, and whether the Displays panel shows a
 warning or error status (rviz draws those rows' names and icons orange or red;
-an Ok row is black or blue)."""
+an Ok row is black or blue). bdis_demo --screenshot captures the screen
+until the cloud shows (cloud_problem, status_problem); the demo's test checks
+the screenshot it saved."""
 import cv2
 import numpy as np
 
 RENDER_BACKGROUND = (48, 48, 48)  # "Background Color" of the config (grey: BGR = RGB)
+MIN_VIEW_SHARE = 0.05  # of the screen: a smaller region of the background colour is no 3-D view
+MIN_CENTRE_CLOUD_SHARE = 0.6  # of the middle of the 3-D view; the sample fills about 0.9
 
 
 def _largest_component(mask):
@@ -41,7 +45,7 @@ def analyse(path):
     x, y, w, h = view
     # The view looks at the cloud: it fills the middle of the panel.
     centre = background[y + h // 4:y + 3 * h // 4, x + w // 4:x + 3 * w // 4]
-    result["centre_cloud_share"] = float(1.0 - centre.mean())
+    result["centre_cloud_share"] = float(1.0 - centre.mean()) if centre.size else 0.0
     result["view_cloud_share"] = float(1.0 - background[y:y + h, x:x + w].mean())
     # The Displays tree: the rows of the largest white region left of the
     # 3-D view (its value column), across the whole panel (names and icons).
@@ -58,3 +62,23 @@ def analyse(path):
         result["status_red_rows"] = _text_rows(red)
         result["status_orange_rows"] = _text_rows(orange)
     return result
+
+
+def cloud_problem(result):
+    """Why an analysed screenshot does not show the cloud, or None."""
+    width, height = result["size"]
+    if result["view"] is None or result["view"][2] * result["view"][3] < MIN_VIEW_SHARE * width * height:
+        return "no 3-D view (rviz not drawn yet, or hidden)"
+    if not result["centre_cloud_share"] >= MIN_CENTRE_CLOUD_SHARE:
+        return "no cloud in the 3-D view (it covers %.0f %% of the view's middle)" % (
+            100 * result["centre_cloud_share"])
+    return None
+
+
+def status_problem(result):
+    """The warning or error statuses of the Displays panel, or None (also when
+    the panel is not found, e.g. under a dark theme)."""
+    red, orange = result.get("status_red_rows", 0), result.get("status_orange_rows", 0)
+    if red or orange:
+        return "the Displays panel shows errors or warnings (%d red, %d orange rows of text)" % (red, orange)
+    return None
