@@ -70,13 +70,13 @@ const std::vector<ParamField>& paramFields() {
       field("mean_normalization", &MatcherParams::mean_normalization, 0, 1,
             "subtract patch means so a brightness offset between cameras cancels"),
       field("propagation", &MatcherParams::propagation, 0, 1,
-            "start each patch from its neighbour's disparity when that fits better (DIS's spatial "
-            "propagation)"),
+            "start each patch from a neighbour's disparity when that fits better (DIS)"),
       field("search_band_rows", &MatcherParams::search_band_rows, 0, 10000,
-            "finest level: forward and backward pass per band of this many patch rows, which "
-            "stays in cache; 0 = the whole level at once (DIS)"),
+            "finest level searched in bands of this many patch rows (in cache); 0 = the whole level (DIS)"),
       field("min_valid_share", &MatcherParams::min_valid_share, 0.0, 1.0,
             "gamma: minimum share of valid (non-black) pixels in a patch"),
+      field("saturation_grey", &MatcherParams::saturation_grey, 1, 256,
+            "pixels this bright in either view (specular highlights) are left out like black ones; 256 = none"),
       field("window_half_width", &MatcherParams::window_half_width, 1, 10,
             "n: the posterior window has 2n+1 disparity samples"),
       field("window_step", &MatcherParams::window_step, 0.05, 4.0,
@@ -88,15 +88,14 @@ const std::vector<ParamField>& paramFields() {
       field("sigma_s", &MatcherParams::sigma_s, 0.1, 100.0,
             "spatial Gaussian inside a patch, px at the level"),
       field("confidence_floor", &MatcherParams::confidence_floor, 0.0, 1.0,
-            "pixels with lower confidence get no disparity"),
+            "pixels whose covering patches' mean evidence is lower get no disparity"),
       field("lr_check_tolerance", &MatcherParams::lr_check_tolerance, 0.0, 100.0,
-            "drop pixels whose match, searched back from the right image, lands farther than this "
+            "drop estimates the search from the right image does not confirm within this "
             "(full-resolution px); 0 = off"),
       field("lr_check_overlap", &MatcherParams::lr_check_overlap, 0.0, 0.95,
             "patch overlap of the left-right check's search from the right image (finest level)"),
       field("compute_variance", &MatcherParams::compute_variance, 0, 1,
-            "also compute the per-pixel disparity variance (px^2; the journal version's fit), which "
-            "the node publishes as variance"),
+            "also compute the per-pixel disparity variance (px^2), published as variance"),
   };
   return fields;
 }

@@ -33,12 +33,16 @@ struct MatcherParams {
   int search_band_rows = 8;
   // Bayesian patch posterior.
   float min_valid_share = 0.25f;   ///< gamma: patches with fewer valid pixels are discarded
+  /// Pixels this bright or brighter in either view (grey level; a specular
+  /// highlight, which sits elsewhere on the tissue in each view) are left
+  /// out like black ones; 256 = none.
+  int saturation_grey = 255;
   int window_half_width = 2;       ///< n: posterior window has 2n+1 samples
   float window_step = 1.0f;        ///< delta: spacing of window samples, px at the level
   float sigma_r = 0.5f;            ///< brightness noise, grey levels
   float contrast_share = 0.3f;     ///< see above; 0 = paper's fixed-noise posterior
   float sigma_s = 4.0f;            ///< spatial Gaussian inside a patch, px at the level
-  float confidence_floor = 0.015f;  ///< pixels whose confidence is lower get no disparity
+  float confidence_floor = 0.015f;  ///< pixels whose patches' mean evidence is lower get no disparity
   float lr_check_tolerance = 3.f;  ///< left-right check, full-resolution px; 0 = off
   float lr_check_overlap = 0.4f;   ///< patch overlap of the check's search from the right image
   bool compute_variance = false;   ///< also output per-pixel disparity variance (px^2)

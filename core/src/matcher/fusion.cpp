@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "bdis_stereo/matcher.hpp"  // kNoDisparity
+#include "confidence.hpp"
 
 namespace bdis {
 namespace detail {
@@ -25,15 +26,32 @@ void fusedRow(int n, const float* __restrict num, const float* __restrict den, f
   }
 }
 
+/// The squared spread of the covering patches' disparities around the fused
+/// one: their weighted variance, sq / den - fused^2.
+BDIS_ROW_LOOP
+void spreadSquaredRow(int n, const float* __restrict fused, const float* __restrict den,
+                      const float* __restrict sq, float* __restrict spread_sq) {
+  for (int x = 0; x < n; ++x) {
+    const float f = fused[x];
+    spread_sq[x] = std::max(0.f, sq[x] / std::max(den[x], std::numeric_limits<float>::min()) - f * f);
+  }
+}
+
 /// The finest level's output row: fused disparity and confidence where some
-/// patch survived and the confidence reaches the floor.
+/// patch survived and the covering patches' mean evidence reaches the floor.
+/// The confidence is that evidence times the agreement of their
+/// disparities: the floor gates on what the patches' posteriors say, the
+/// confidence also ranks by where they disagree.
 BDIS_ROW_LOOP
 void floorRow(int n, const float* __restrict fused, const float* __restrict den,
-              const float* __restrict conf_sum, const float* __restrict cover_x, float cover_y,
-              float confidence_floor, float* __restrict disparity, float* __restrict confidence) {
+              const float* __restrict spread_sq, const float* __restrict conf_sum, const float* __restrict cover_x,
+              float cover_y, float inv_spread_halving_sq, float confidence_floor, float* __restrict disparity,
+              float* __restrict confidence) {
   for (int x = 0; x < n; ++x) {
-    const float conf = conf_sum[x] / (cover_y * cover_x[x]), f = fused[x];
-    const bool keep = (den[x] > 0.f) & (conf >= confidence_floor);  // & : no branch
+    const float f = fused[x];
+    const float evidence = conf_sum[x] / (cover_y * cover_x[x]);
+    const float conf = evidence * agreement(spread_sq[x], inv_spread_halving_sq);
+    const bool keep = (den[x] > 0.f) & (evidence >= confidence_floor);  // & : no branch
     const float d = keep ? f : kNoDisparity, c = keep ? conf : 0.f;
     disparity[x] = d;
     confidence[x] = c;
@@ -65,7 +83,7 @@ struct Fusion::NoVariance {
   void clear(int) {}
   void carry(int, int) {}
   void addPatch(const float*, int, const PatchEstimate&, int, int) {}
-  void finishRow(int, const float*, int) const {}
+  void finishRow(int, const float*, const float*, int) const {}
 };
 
 /// The squared-weight average of the covering patches' variances: sums of
@@ -94,14 +112,17 @@ class Fusion::VarianceSums {
       }
     }
   }
-  /// Output row y from band row `by`: NaN where `disparity` has no estimate,
-  /// the maximal variance where the squared weights underflowed (a tiny sigma_s).
-  void finishRow(int by, const float* disparity, int y) const {
+  /// Output row y from band row `by`: NaN where `disparity` has no estimate;
+  /// else the covering patches' window variances (the maximal variance
+  /// where the squared weights underflowed: a tiny sigma_s), scaled to what
+  /// the errors show, plus the squared spread of their disparities.
+  void finishRow(int by, const float* disparity, const float* spread_sq, int y) const {
     const float* vn = num_[by];
     const float* vd = den_[by];
     float* out = out_[y];
     for (int x = 0; x < width_; ++x) {
-      out[x] = disparity[x] < 0.f ? kNaN : vd[x] > 0.f ? vn[x] / vd[x] : max_variance_;
+      const float window = vd[x] > 0.f ? vn[x] / vd[x] : max_variance_;
+      out[x] = disparity[x] < 0.f ? kNaN : kWindowVarianceShare * window + kSpreadVarianceShare * spread_sq[x];
     }
   }
 
@@ -132,7 +153,7 @@ void Fusion::configure(const KernelSet& kernels, int patch_size, float sigma_s, 
 }
 
 void Fusion::allocate(int band_rows, int max_width, int max_height, bool with_variance) {
-  for (cv::Mat1f* m : {&num_, &den_, &conf_}) m->create(band_rows, max_width);
+  for (cv::Mat1f* m : {&num_, &den_, &conf_, &sq_}) m->create(band_rows, max_width);
   if (with_variance) {
     var_num_.create(band_rows, max_width);
     var_den_.create(band_rows, max_width);
@@ -140,6 +161,7 @@ void Fusion::allocate(int band_rows, int max_width, int max_height, bool with_va
   cover_x_.resize(static_cast<size_t>(max_width));
   cover_y_.resize(static_cast<size_t>(max_height));
   fused_row_.resize(static_cast<size_t>(max_width));
+  spread_sq_row_.resize(static_cast<size_t>(max_width));
 }
 
 template <class Variance, class FinishRows>
@@ -152,7 +174,7 @@ void Fusion::accumulate(const PatchGrid& grid, const std::vector<PatchEstimate>&
   // Every pixel sums its patches in the same order as over a whole-level buffer.
   const int band_rows = num_.rows;
   int band_top = 0;
-  for (cv::Mat1f* m : {&num_, &den_, &conf_}) clearRows(*m, 0, width);
+  for (cv::Mat1f* m : {&num_, &den_, &conf_, &sq_}) clearRows(*m, 0, width);
   variance.clear(0);
   // The grid is regular: the patches covering a pixel are those covering its
   // column times those covering its row.
@@ -165,7 +187,7 @@ void Fusion::accumulate(const PatchGrid& grid, const std::vector<PatchEstimate>&
     if (y0 + p > band_top + band_rows) {
       finish(band_top, y0);
       const int kept = band_top + band_rows - y0;  // < p: rows the next patches add to
-      for (cv::Mat1f* m : {&num_, &den_, &conf_}) carryRows(*m, y0 - band_top, kept, width);
+      for (cv::Mat1f* m : {&num_, &den_, &conf_, &sq_}) carryRows(*m, y0 - band_top, kept, width);
       variance.carry(y0 - band_top, kept);
       band_top = y0;
     }
@@ -174,7 +196,7 @@ void Fusion::accumulate(const PatchGrid& grid, const std::vector<PatchEstimate>&
       const PatchEstimate& e = estimates[k++];
       if (e.posterior <= 0.f) continue;
       kernels_->accumulate_patch(p, spatial_.data(), e.posterior, e.disparity, e.evidence, num_[by] + x0,
-                                 den_[by] + x0, conf_[by] + x0, stride);
+                                 den_[by] + x0, conf_[by] + x0, sq_[by] + x0, stride);
       variance.addPatch(spatial_.data(), p, e, by, x0);
     }
   }
@@ -200,16 +222,19 @@ void Fusion::fuseInitialisation(const PatchGrid& grid, const std::vector<PatchEs
 }
 
 void Fusion::fuseFinest(const PatchGrid& grid, const std::vector<PatchEstimate>& estimates, int width,
-                        int height, const cv::Mat1f& coarse, bool keep_confidence, bool with_variance,
-                        LevelMaps& out) {
+                        int height, const cv::Mat1f& coarse, float spread_halving, bool keep_confidence,
+                        bool with_variance, LevelMaps& out) {
+  const float inv_spread_halving_sq = 1.f / (spread_halving * spread_halving);
   auto finish = [&](int band_top, int end, auto& variance) {
     for (int y = band_top; y < end; ++y) {
       const int by = y - band_top;
       fusedRowOrCoarse(width, by, y, coarse, fused_row_.data());
+      spreadSquaredRow(width, fused_row_.data(), den_[by], sq_[by], spread_sq_row_.data());
       float* disparity = out.disparity[y];
-      floorRow(width, fused_row_.data(), den_[by], conf_[by], cover_x_.data(), cover_y_[static_cast<size_t>(y)],
-               confidence_floor_, disparity, out.confidence[keep_confidence ? y : 0]);
-      variance.finishRow(by, disparity, y);
+      floorRow(width, fused_row_.data(), den_[by], spread_sq_row_.data(), conf_[by], cover_x_.data(),
+               cover_y_[static_cast<size_t>(y)], inv_spread_halving_sq, confidence_floor_, disparity,
+               out.confidence[keep_confidence ? y : 0]);
+      variance.finishRow(by, disparity, spread_sq_row_.data(), y);
     }
   };
   if (with_variance) {
@@ -220,6 +245,7 @@ void Fusion::fuseFinest(const PatchGrid& grid, const std::vector<PatchEstimate>&
     NoVariance none;
     accumulate(grid, estimates, width, height, none, [&](int band_top, int end) { finish(band_top, end, none); });
   }
+
 }
 
 }  // namespace detail

@@ -42,10 +42,12 @@ class Fusion {
   /// The finest level into `out` (rows 0..height-1 of each map; only row 0
   /// of out.confidence when !keep_confidence; out.variance only when
   /// `with_variance`): the fused value where a patch survived and the
-  /// confidence reaches the floor.
+  /// confidence reaches the floor. The confidence is the covering patches'
+  /// mean evidence times agreement() of their disparities' spread, with
+  /// `spread_halving` in level px.
   void fuseFinest(const PatchGrid& grid, const std::vector<PatchEstimate>& estimates, int width,
-                  int height, const cv::Mat1f& coarse, bool keep_confidence, bool with_variance,
-                  LevelMaps& out);
+                  int height, const cv::Mat1f& coarse, float spread_halving, bool keep_confidence,
+                  bool with_variance, LevelMaps& out);
 
  private:
   struct NoVariance;
@@ -62,10 +64,12 @@ class Fusion {
   float confidence_floor_ = 0.f;
   float max_variance_ = 0.f;
   std::vector<float> spatial_;           ///< p x p Gaussian, row-major
-  cv::Mat1f num_, den_, conf_;           ///< the band's sums: weighted disparity, weight, evidence
+  /// The band's sums: weighted disparity, weight, evidence, weighted squared disparity.
+  cv::Mat1f num_, den_, conf_, sq_;
   cv::Mat1f var_num_, var_den_;          ///< with variance: squared-weight sums
   std::vector<float> cover_x_, cover_y_;  ///< patches covering each column / row of the level
   std::vector<float> fused_row_;         ///< the finest level's fused row before the floor
+  std::vector<float> spread_sq_row_;     ///< its squared spread
 };
 
 }  // namespace detail

@@ -12,9 +12,12 @@ namespace detail {
 /// level's `disparity` whose match column x - d (rounded) has no estimate in
 /// `mirrored` (the right-reference search's disparity of the mirrored pair:
 /// its column w - 1 - x is right-image column x), or one more than
-/// `tolerance` (level px) away. Rows [0, disparity.rows) of all three.
-void leftRightCheck(const cv::Mat1f& mirrored, float tolerance, cv::Mat1f& disparity,
-                    cv::Mat1f& confidence);
+/// `tolerance` (level px) away. The others keep their confidence times
+/// agreement() of the difference (`halving` in level px) and, with a
+/// `variance` map (may be null), a variance grown by a share of the squared
+/// difference. Rows [0, disparity.rows).
+void leftRightCheck(const cv::Mat1f& mirrored, float tolerance, float halving, cv::Mat1f& disparity,
+                    cv::Mat1f& confidence, cv::Mat1f* variance);
 
 }  // namespace detail
 }  // namespace bdis

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "band_schedule.hpp"
+#include "confidence.hpp"
 #include "left_right_check.hpp"
 #include "pyramid.hpp"
 #include "search_pass.hpp"
@@ -97,7 +98,7 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   const bool with_check = P.lr_check_tolerance > 0.f;
 
   // 1. Pyramid: grey levels, gradients and validity of the pair.
-  m.pyramid.build(left, right, levels, finest);
+  m.pyramid.build(left, right, levels, finest, P.saturation_grey);
   // 2. Coarse to fine above the finest level; each level initialises the next.
   m.left.matchLevelsAboveFinest(m.pyramid, left.size(), levels, finest);
   if (with_check) {
@@ -114,8 +115,10 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   // 4. The left-right check, at the finest level's scale.
   detail::LevelMaps& out = m.left.finest();
   if (with_check) {
-    detail::leftRightCheck(m.check.finest().disparity, P.lr_check_tolerance / static_cast<float>(1 << finest),
-                           out.disparity, out.confidence);
+    const float level_px = 1.f / static_cast<float>(1 << finest);
+    detail::leftRightCheck(m.check.finest().disparity, P.lr_check_tolerance * level_px,
+                           detail::kLeftRightHalvingPx * level_px, out.disparity, out.confidence,
+                           P.compute_variance ? &out.variance : nullptr);
   }
   // 5. Upsampling to the input resolution.
   m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, result);

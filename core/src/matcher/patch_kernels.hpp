@@ -261,21 +261,25 @@ inline void sumsMasked(const float* rows, size_t stride, const uchar* right_vali
   out = {n, sd, sdd, sgd, sg, sgg};
 }
 
-/// Fusion of one patch: adds posterior * spatial weight * disparity, the
-/// weight and the evidence to the p x p pixels at `num`, `den`, `conf` (rows
-/// `stride` floats apart). `spatial` is the p x p Gaussian, row-major.
-inline void accumulatePatch(int p, const float* spatial, float posterior, float disparity,
-                            float evidence, float* num, float* den, float* conf, size_t stride) {
+/// Fusion of one patch: adds posterior * spatial weight w times the
+/// disparity, w, the evidence and w times the squared disparity to the p x p
+/// pixels at `num`, `den`, `conf`, `sq` (rows `stride` floats apart).
+/// `spatial` is the p x p Gaussian, row-major.
+inline void accumulatePatch(int p, const float* spatial, float posterior, float disparity, float evidence,
+                            float* num, float* den, float* conf, float* sq, size_t stride) {
   for (int y = 0; y < p; ++y) {
     const float* g = spatial + y * p;
     float* nr = num + y * stride;
     float* dr = den + y * stride;
     float* cr = conf + y * stride;
+    float* qr = sq + y * stride;
     for (int x = 0; x < p; ++x) {
       const float w = posterior * g[x];
-      nr[x] += w * disparity;
+      const float wd = w * disparity;
+      nr[x] += wd;
       dr[x] += w;
       cr[x] += evidence;
+      qr[x] += wd * disparity;
     }
   }
 }
@@ -310,8 +314,8 @@ struct KernelSet {
   void (*sums_masked)(const float* rows, size_t stride, const uchar* right_valid, size_t valid_stride,
                       int width, int p, SampleSpan span, const PatchView& patch, const uchar* M,
                       size_t mask_stride, ResidualSums& out);
-  void (*accumulate_patch)(int p, const float* spatial, float posterior, float disparity,
-                           float evidence, float* num, float* den, float* conf, size_t stride);
+  void (*accumulate_patch)(int p, const float* spatial, float posterior, float disparity, float evidence,
+                           float* num, float* den, float* conf, float* sq, size_t stride);
   void (*template_sums)(int p, const PatchView& patch, TemplateSums& out);
 };
 

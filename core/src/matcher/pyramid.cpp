@@ -9,22 +9,25 @@ namespace {
 
 // Validity of an 8-bit row: a pixel is outside the rectified view when
 // every channel is 0; judged on the input, not on the grey value, so a very
-// dark but real pixel stays valid.
+// dark but real pixel stays valid. A pixel whose grey level reaches
+// `saturated` is left out too: a specular highlight sits at another place on
+// the tissue in each view, and its clipped plateau holds no texture.
 BDIS_ROW_LOOP
-void validityOfMonoRow(const uchar* __restrict src, int w, uchar* __restrict valid) {
-  for (int x = 0; x < w; ++x) valid[x] = src[x] != 0;
+void validityOfMonoRow(const uchar* __restrict src, int w, int saturated, uchar* __restrict valid) {
+  for (int x = 0; x < w; ++x) valid[x] = (src[x] != 0) & (src[x] < saturated);
 }
 
 // Luma and validity of a BGR row, read interleaved. Luma is a whole number:
 // kept in 8 bits, a quarter of the memory traffic of floats.
 BDIS_ROW_LOOP
-void lumaOfBgrRow(const uchar* __restrict bgr, int w, uchar* __restrict grey, uchar* __restrict valid) {
+void lumaOfBgrRow(const uchar* __restrict bgr, int w, int saturated, uchar* __restrict grey,
+                  uchar* __restrict valid) {
   for (int x = 0; x < w; ++x) {
     const uchar b = bgr[3 * x], gr = bgr[3 * x + 1], r = bgr[3 * x + 2];
     // Rec. 601 luma in 8.8 fixed point (within 1 grey level of cv::cvtColor).
     const uint16_t luma = static_cast<uint16_t>(29 * b + 150 * gr + 77 * r + 128);
     grey[x] = static_cast<uchar>(luma >> 8);
-    valid[x] = (b | gr | r) != 0;
+    valid[x] = ((b | gr | r) != 0) & ((luma >> 8) < saturated);
   }
 }
 
@@ -53,13 +56,13 @@ void invalidateSeams(const uchar* grey, int w, uchar* valid) {
 
 /// Grey value and validity of row y of an 8-bit mono or BGR input: returns
 /// the input row itself when it is mono, else `luma_row` filled.
-const uchar* greyAndValidityRow(const cv::Mat& src, int y, uchar* luma_row, uchar* valid_row) {
+const uchar* greyAndValidityRow(const cv::Mat& src, int y, int saturated, uchar* luma_row, uchar* valid_row) {
   const uchar* row = src.ptr<uchar>(y);
   const uchar* grey = row;
   if (src.channels() == 1) {
-    validityOfMonoRow(row, src.cols, valid_row);
+    validityOfMonoRow(row, src.cols, saturated, valid_row);
   } else {
-    lumaOfBgrRow(row, src.cols, luma_row, valid_row);
+    lumaOfBgrRow(row, src.cols, saturated, luma_row, valid_row);
     grey = luma_row;
   }
   invalidateSeams(grey, src.cols, valid_row);
@@ -205,7 +208,8 @@ int levelsThatFit(int width, int height, int patch_size, int wanted_levels) {
 }
 
 void StereoPyramid::build(const cv::Mat& left, const cv::Mat& right, int num_levels,
-                          int first_searched_level) {
+                          int first_searched_level, int saturation_grey) {
+  saturated_ = saturation_grey;
   size_ = left.size();
   levels_.resize(static_cast<size_t>(num_levels));  // no-op once sized
   for (int s = 0; s < num_levels; ++s) {
@@ -218,8 +222,8 @@ void StereoPyramid::build(const cv::Mat& left, const cv::Mat& right, int num_lev
   input_rows_.create(4, left.cols);
   if (first_searched_level == 0) {
     for (int y = 0; y < left.rows; ++y) {
-      toFloatRow(greyAndValidityRow(left, y, input_rows_[0], base.left_valid[y]), left.cols, base.left[y]);
-      toFloatRow(greyAndValidityRow(right, y, input_rows_[0], base.right_valid[y]), left.cols, base.right[y]);
+      toFloatRow(greyAndValidityRow(left, y, saturated_, input_rows_[0], base.left_valid[y]), left.cols, base.left[y]);
+      toFloatRow(greyAndValidityRow(right, y, saturated_, input_rows_[0], base.right_valid[y]), left.cols, base.right[y]);
     }
   } else {
     downsampleInputs(left, right);
@@ -247,14 +251,14 @@ void StereoPyramid::downsampleInputs(const cv::Mat& left, const cv::Mat& right) 
       for (int i = 0; i < 2; ++i) {
         // Level 0 keeps the left validity only: the output mask.
         uchar* valid_row = is_left ? base.left_valid[2 * y + i] : input_rows_[2 + i];
-        grey[i] = greyAndValidityRow(src, 2 * y + i, input_rows_[i], valid_row);
+        grey[i] = greyAndValidityRow(src, 2 * y + i, saturated_, input_rows_[i], valid_row);
         valid[i] = valid_row;
       }
       downsampleRow(grey[0], grey[1], valid[0], valid[1], coarse.cols, coarse[y], coarse_valid[y]);
     }
     // An odd last row has no coarse row but belongs to the output mask.
     if (is_left && src.rows % 2) {
-      greyAndValidityRow(src, src.rows - 1, input_rows_[0], base.left_valid[src.rows - 1]);
+      greyAndValidityRow(src, src.rows - 1, saturated_, input_rows_[0], base.left_valid[src.rows - 1]);
     }
   }
 }

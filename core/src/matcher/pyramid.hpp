@@ -43,8 +43,11 @@ struct PyramidLevel {
 class StereoPyramid {
  public:
   /// Builds levels 0..num_levels-1 from 8-bit mono or BGR inputs of equal size;
-  /// gradients only from `first_searched_level` on.
-  void build(const cv::Mat& left, const cv::Mat& right, int num_levels, int first_searched_level);
+  /// gradients only from `first_searched_level` on. Pixels black in every
+  /// channel, the dark seam rectification leaves next to a black frame and
+  /// pixels of grey level `saturation_grey` or brighter are invalid.
+  void build(const cv::Mat& left, const cv::Mat& right, int num_levels, int first_searched_level,
+             int saturation_grey = 256);
   const PyramidLevel& level(int s) const { return levels_[static_cast<size_t>(s)]; }
   int numLevels() const { return static_cast<int>(levels_.size()); }
   cv::Size size() const { return size_; }  ///< of the input (level 0)
@@ -58,6 +61,7 @@ class StereoPyramid {
 
   std::vector<PyramidLevel> levels_;
   cv::Size size_;
+  int saturated_ = 256;  ///< grey level from which a pixel is invalid
   /// Row scratch of the 8-bit conversion: rows 0 and 1 the grey of a colour
   /// input's rows; rows 2 and 3 the right validity of the two rows
   /// downsampleInputs averages (level 0 stores none when not searched).

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "confidence.hpp"
 #include "patch_grid.hpp"
 
 namespace bdis {
@@ -69,8 +70,9 @@ void SearchPass::searchFinestBand(const PyramidLevel& L, int top, int bottom) {
 }
 
 void SearchPass::fuseFinestLevel() {
+  const float spread_halving = kSpreadHalvingPx / static_cast<float>(1 << finest_level_);
   fusion_.fuseFinest(search_.grid(), search_.estimates(), finest_.disparity.cols, finest_.disparity.rows,
-                     initialisation_[static_cast<size_t>(finest_level_) + 1], keep_confidence_,
+                     initialisation_[static_cast<size_t>(finest_level_) + 1], spread_halving, keep_confidence_,
                      params_.compute_variance, finest_);
 }
 

@@ -218,21 +218,21 @@ TEST(PatchKernels, EveryIsaAccumulatesAPatchLikeTheScalarLoop) {
       ++sets_checked;
       std::vector<float> spatial(static_cast<size_t>(p * p));
       for (float& g : spatial) g = rng.uniform(0.f, 1.f);
-      cv::Mat1f sums[2][3];
+      cv::Mat1f sums[2][4];
       for (cv::Mat1f& m : sums[0]) {
         m.create(p + 3, p + 7);
         rng.fill(m, cv::RNG::UNIFORM, 0.f, 10.f);
       }
-      for (int i = 0; i < 3; ++i) sums[1][i] = sums[0][i].clone();
+      for (int i = 0; i < 4; ++i) sums[1][i] = sums[0][i].clone();
       for (int patch = 0; patch < 3; ++patch) {
         const float post = rng.uniform(0.f, 1.f), d = rng.uniform(0.f, 40.f), ev = rng.uniform(0.f, 1.f);
         const int x0 = patch + 1, y0 = patch;
         k.accumulate_patch(p, spatial.data(), post, d, ev, &sums[0][0](y0, x0), &sums[0][1](y0, x0),
-                           &sums[0][2](y0, x0), sums[0][0].step1());
+                           &sums[0][2](y0, x0), &sums[0][3](y0, x0), sums[0][0].step1());
         accumulatePatch(p, spatial.data(), post, d, ev, &sums[1][0](y0, x0), &sums[1][1](y0, x0),
-                        &sums[1][2](y0, x0), sums[1][0].step1());
+                        &sums[1][2](y0, x0), &sums[1][3](y0, x0), sums[1][0].step1());
       }
-      for (int i = 0; i < 3; ++i) {
+      for (int i = 0; i < 4; ++i) {
         EXPECT_LE(cv::norm(sums[0][i], sums[1][i], cv::NORM_INF), 1e-6 * cv::norm(sums[1][i], cv::NORM_INF))
             << k.name << " p=" << p;
       }

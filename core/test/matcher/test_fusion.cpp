@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "bdis_stereo/matcher.hpp"
+#include "confidence.hpp"
 #include "fusion.hpp"
 
 namespace {
@@ -14,6 +15,8 @@ using bdis::detail::Fusion;
 using bdis::detail::LevelMaps;
 using bdis::detail::PatchEstimate;
 using bdis::detail::PatchGrid;
+using bdis::detail::kSpreadVarianceShare;
+using bdis::detail::kWindowVarianceShare;
 
 constexpr float kSigmaS = 2.f;
 
@@ -43,7 +46,7 @@ Level fused(int width, int height, int p, int stride, std::vector<PatchEstimate>
   l.maps.confidence.create(height, width);
   if (variance) l.maps.variance.create(height, width);
   const cv::Mat1f coarse(height / 2 + 1, width / 2 + 1, coarse_value);
-  f.fuseFinest(l.grid, l.estimates, width, height, coarse, true, variance, l.maps);
+  f.fuseFinest(l.grid, l.estimates, width, height, coarse, /*spread_halving=*/1e6f, true, variance, l.maps);
   return l;
 }
 
@@ -87,6 +90,31 @@ TEST(Fusion, DiscardedPatchesWeighNothingButCountInTheConfidence) {
   EXPECT_EQ(l.maps.confidence(1, 5), 0.f);
 }
 
+TEST(Fusion, DisagreeingPatchesLowerTheConfidence) {
+  // Two patches of equal evidence over one column: where they agree the
+  // confidence is their evidence; 2 px apart (a spread of about 1 px) it is
+  // about halved at a halving of 1 px. The floor still gates on the evidence.
+  const PatchEstimate a{5.f, 1.f, 0.8f, 0.f};
+  for (const float other : {5.f, 7.f, 15.f}) {
+    const PatchEstimate b{other, 1.f, 0.8f, 0.f};
+    Level l;
+    l.grid.layout(6, 4, 4, 2);
+    l.estimates = {a, b};
+    Fusion f;
+    f.configure(bdis::detail::kernelsFor(4, bdis::detail::KernelIsa::Scalar), 4, kSigmaS, 0.5f, 16.f);
+    f.allocate(4, 6, 4, false);
+    l.maps.disparity.create(4, 6);
+    l.maps.confidence.create(4, 6);
+    f.fuseFinest(l.grid, l.estimates, 6, 4, cv::Mat1f(3, 4, 0.f), /*spread_halving=*/1.f, true, false, l.maps);
+    const float wa = spatial(4, 2, 1), wb = spatial(4, 0, 1);
+    const float d = (wa * 5.f + wb * other) / (wa + wb);
+    const float spread_sq = (wa * (5.f - d) * (5.f - d) + wb * (other - d) * (other - d)) / (wa + wb);
+    EXPECT_NEAR(l.maps.confidence(1, 2), 0.8f / (1.f + spread_sq), 1e-4f) << other;
+    EXPECT_GE(l.maps.disparity(1, 2), 0.f) << "evidence 0.8 passes the floor of 0.5: " << other;
+    EXPECT_FLOAT_EQ(l.maps.confidence(1, 0), 0.8f);  // one patch only: no spread
+  }
+}
+
 TEST(Fusion, ConfidenceFloorDropsTheEstimate) {
   const Level l = fused(4, 4, 4, 4, {{3.f, 0.5f, 0.1f, 0.f}}, /*confidence_floor=*/0.2f);
   EXPECT_EQ(l.maps.disparity(2, 2), kNoDisparity);
@@ -95,14 +123,20 @@ TEST(Fusion, ConfidenceFloorDropsTheEstimate) {
   EXPECT_FLOAT_EQ(kept.maps.disparity(2, 2), 3.f);
 }
 
-TEST(Fusion, VarianceIsTheSquaredWeightAverage) {
+TEST(Fusion, VarianceIsTheWindowFitsShareAndTheSpread) {
+  // A share of the squared-weight average of the patches' window variances,
+  // plus a share of the squared spread of their disparities around the fused one.
   const PatchEstimate a{2.f, 1.f, 0.6f, 1.f}, b{4.f, 0.5f, 0.2f, 3.f};
   const Level l = fused(6, 4, 4, 2, {a, b}, 0.f, /*variance=*/true);
   for (int y = 0; y < 4; ++y) {
     const float wa = a.posterior * spatial(4, 2, y), wb = b.posterior * spatial(4, 0, y);
-    EXPECT_NEAR(l.maps.variance(y, 2), (wa * wa * 1.f + wb * wb * 3.f) / (wa * wa + wb * wb), 1e-5f);
-    EXPECT_FLOAT_EQ(l.maps.variance(y, 0), 1.f);
-    EXPECT_FLOAT_EQ(l.maps.variance(y, 5), 3.f);
+    const float window = (wa * wa * 1.f + wb * wb * 3.f) / (wa * wa + wb * wb);
+    const float fused_d = (wa * 2.f + wb * 4.f) / (wa + wb);
+    const float spread_sq = (wa * (2.f - fused_d) * (2.f - fused_d) + wb * (4.f - fused_d) * (4.f - fused_d)) / (wa + wb);
+    EXPECT_NEAR(l.maps.variance(y, 2), kWindowVarianceShare * window + kSpreadVarianceShare * spread_sq, 1e-4f);
+    // One patch: no spread.
+    EXPECT_FLOAT_EQ(l.maps.variance(y, 0), kWindowVarianceShare * 1.f);
+    EXPECT_FLOAT_EQ(l.maps.variance(y, 5), kWindowVarianceShare * 3.f);
   }
   // NaN where there is no estimate.
   const Level none = fused(4, 4, 4, 4, {{3.f, 0.f, 0.f, 2.f}}, 0.f, true);

@@ -116,4 +116,23 @@ TEST(MirroredPyramid, BandedLevelHoldsTheRowsOfTheWholeOne) {
   expectSameRows(banded.level(2), whole.level(2), 0, whole.level(2).height);
 }
 
+TEST(StereoPyramid, ClippedPixelsAreOutsideTheView) {
+  // Grey 255 in either view (a clipped highlight) is invalid from
+  // saturation_grey 255 on, like black; 256 leaves every lit pixel valid.
+  cv::Mat left(64, 64, CV_8UC1, cv::Scalar(120)), right(64, 64, CV_8UC1, cv::Scalar(120));
+  left(cv::Rect(10, 10, 4, 4)).setTo(255);
+  right(cv::Rect(40, 20, 2, 2)).setTo(255);
+  for (const int saturation : {255, 256}) {
+    StereoPyramid p;
+    p.build(left, right, 2, 0, saturation);
+    const PyramidLevel& l0 = p.level(0);
+    const bool clipped_invalid = saturation == 255;
+    EXPECT_EQ(l0.leftValidRow(11)[11] == 0, clipped_invalid) << saturation;
+    EXPECT_EQ(l0.rightValidRow(21)[41] == 0, clipped_invalid) << saturation;
+    EXPECT_EQ(l0.leftValidRow(30)[30], 1) << saturation;
+    // Level 1 averages 2x2 pixels: valid only where all four are.
+    EXPECT_EQ(p.level(1).leftValidRow(5)[5] == 0, clipped_invalid) << saturation;
+  }
+}
+
 }  // namespace

@@ -3,10 +3,11 @@
 // the behaviour each difficulty calls for. Frames 0, 5 and 10 of each variant
 // at 640x480. Thresholds sit a modest margin beyond the values measured when
 // they were set (in the comments: BDIS / OpenCV DIS fast on the same frames);
-// DIS fast is printed alongside for the README, not asserted.
+// DIS fast is printed alongside, and asserted only where a variant's bar says so.
 // Part of test_synth (it needs the generator).
 #include <gtest/gtest.h>
 
+#include "bdis_stereo/error_analysis.hpp"
 #include "bdis_stereo/evaluation.hpp"
 #include "bdis_stereo/matcher.hpp"
 #include "synth_test_util.hpp"
@@ -48,6 +49,7 @@ const MatcherRun& bdisRun(const std::string& name) {
 struct Bar {
   const char* variant;
   double min_density, max_median, max_bad2, max_miss_or_bad2;
+  bool bad2_at_most_dis_fast = false;  ///< fewer outliers than OpenCV DIS fast on the same frames
 };
 
 class SyntheticAccuracy : public ::testing::TestWithParam<Bar> {};
@@ -72,24 +74,31 @@ TEST_P(SyntheticAccuracy, DefaultParamsMeetTheMeasuredBar) {
   EXPECT_LE(bdis_score.medianError(), bar.max_median);
   EXPECT_LE(bdis_score.bad2Rate(), bar.max_bad2);
   EXPECT_LE(bdis_score.missOrBad2Rate(), bar.max_miss_or_bad2);
+  if (bar.bad2_at_most_dis_fast) {
+    EXPECT_LE(bdis_score.bad2Rate(), dis_score.bad2Rate());
+  }
 }
 
 // Measured when set (density / median px / bad2 / miss_or_bad2), BDIS with
-// default parameters and, for reference, OpenCV DIS fast:
-//   diffuse         bdis 0.964 / 0.161 /  2.1% /  5.6%   dis_fast 1.000 / 0.177 /  1.7% /  1.7%
-//   specular        bdis 0.965 / 0.122 /  2.6% /  6.0%   dis_fast 1.000 / 0.211 /  3.6% /  3.6%
-//   dark_periphery  bdis 0.774 / 0.421 / 14.5% / 33.8%   dis_fast 1.000 / 0.407 / 10.7% / 10.7%
-//   textureless     bdis 0.958 / 0.165 /  2.4% /  6.5%   dis_fast 1.000 / 0.182 /  1.6% /  1.6%
-//   instrument      bdis 0.954 / 0.137 /  6.0% / 10.3%   dis_fast 1.000 / 0.247 / 11.5% / 11.5%
-//   tube            bdis 0.891 / 0.507 / 12.1% / 21.7%   dis_fast 0.989 / 0.924 / 29.1% / 29.9%
+// default parameters and, for reference, OpenCV DIS fast. Clipped highlights
+// (grey 255) are left out since: specular and instrument lost 2-3 points of
+// density there and more than half their outliers (2.1 -> 0.9 %, 5.1 -> 4.0 %).
+//   diffuse         bdis 0.956 / 0.154 /  1.3% /  5.6%   dis_fast 1.000 / 0.177 /  1.7% /  1.7%
+//   specular        bdis 0.943 / 0.114 /  0.9% /  6.6%   dis_fast 1.000 / 0.211 /  3.6% /  3.6%
+//   dark_periphery  bdis 0.753 / 0.358 /  9.3% / 31.7%   dis_fast 1.000 / 0.407 / 10.7% / 10.7%
+//   textureless     bdis 0.952 / 0.159 /  1.7% /  6.4%   dis_fast 1.000 / 0.182 /  1.6% /  1.6%
+//   instrument      bdis 0.917 / 0.125 /  4.0% / 12.0%   dis_fast 1.000 / 0.247 / 11.5% / 11.5%
+//   tube            bdis 0.879 / 0.493 / 11.2% / 21.9%   dis_fast 0.989 / 0.924 / 29.1% / 29.9%
+// The dark periphery is the variant where a guess is most tempting: there
+// BDIS must publish fewer outliers than DIS fast, which publishes everything.
 INSTANTIATE_TEST_SUITE_P(
     Generated, SyntheticAccuracy,
-    ::testing::Values(Bar{"diffuse", 0.94, 0.20, 0.030, 0.075},         //
-                      Bar{"specular", 0.94, 0.16, 0.035, 0.080},        //
-                      Bar{"dark_periphery", 0.74, 0.48, 0.165, 0.37},   //
-                      Bar{"textureless", 0.93, 0.20, 0.033, 0.085},     //
-                      Bar{"instrument", 0.93, 0.17, 0.070, 0.125},      //
-                      Bar{"tube", 0.86, 0.57, 0.14, 0.245}),            //
+    ::testing::Values(Bar{"diffuse", 0.94, 0.20, 0.025, 0.075},              //
+                      Bar{"specular", 0.93, 0.14, 0.015, 0.080},             //
+                      Bar{"dark_periphery", 0.73, 0.42, 0.11, 0.34, true},   //
+                      Bar{"textureless", 0.93, 0.20, 0.030, 0.085},          //
+                      Bar{"instrument", 0.90, 0.15, 0.050, 0.135},           //
+                      Bar{"tube", 0.86, 0.55, 0.13, 0.24}),                  //
     [](const ::testing::TestParamInfo<Bar>& info) { return std::string(info.param.variant); });
 
 /// Per-region tallies of the matcher's output against ground truth.
@@ -139,7 +148,7 @@ void print(const char* what, const RegionStats& s) {
 TEST(SyntheticBehaviour, TexturelessPatchGetsLowConfidenceNotConfidentWrongDepth) {
   // Inside the albedo-flat disk (eroded by 10 px, so no patch reaches its
   // textured rim) a matcher can only guess. Measured: 63% estimated, 0.0%
-  // with confidence >= 0.5, mean confidence 0.023 vs 0.43 on the rest.
+  // with confidence >= 0.5, mean confidence 0.009 vs 0.39 on the rest.
   const MatcherRun& run = bdisRun("textureless");
   const RegionStats patch = regionStats(run, [](const SyntheticFrame& f) {
     cv::Mat m;
@@ -162,10 +171,11 @@ TEST(SyntheticBehaviour, TexturelessPatchGetsLowConfidenceNotConfidentWrongDepth
 TEST(SyntheticBehaviour, InstrumentBoundaryHasFewConfidentOutliers) {
   // Bands of 12 px on either side of the instrument's outline (tissue next to
   // it, where foreground fattening strikes, and the instrument's rim).
-  // Measured: confident (>= 0.5) and off by > 2 px on 13.7% of the tissue
-  // band and 8.7% of the rim, 0.00% on tissue farther away. That is a known
-  // weakness of the matcher (a wrong depth next to a tool should be a missing
-  // one); these bars only hold it from getting worse.
+  // Measured: confident (>= 0.5) and off by > 2 px on 0.45% of the tissue
+  // band and 0.74% of the rim, 0.00% on tissue farther away. Before the
+  // confidence took the covering patches' disagreement and the left-right
+  // difference into account: 13.7% and 8.7%, the fattened band among the
+  // frame's most confident pixels.
   const MatcherRun& run = bdisRun("instrument");
   auto band = [](const SyntheticFrame& f, bool tissue_side) {
     const cv::Mat inst = f.label == bdis::synth::kLabelInstrument;
@@ -185,15 +195,15 @@ TEST(SyntheticBehaviour, InstrumentBoundaryHasFewConfidentOutliers) {
   print("tool rim (12 px)", rim);
   print("tissue farther than 24 px", away);
   EXPECT_GT(tissue.pixels, 10000);
-  EXPECT_LE(tissue.share(tissue.confident_bad2), 0.16);
-  EXPECT_LE(rim.share(rim.confident_bad2), 0.105);
+  EXPECT_LE(tissue.share(tissue.confident_bad2), 0.015);
+  EXPECT_LE(rim.share(rim.confident_bad2), 0.02);
   EXPECT_LE(away.share(away.confident_bad2), 0.002);
 }
 
 TEST(SyntheticBehaviour, DarkPeripheryLowersConfidenceRatherThanGuessing) {
   // Pixels whose grey level is below 40 (the periphery under a narrow beam)
-  // vs the lit middle (above 80). Measured: mean confidence 0.11 vs 0.38;
-  // 8% confident in the dark, none of them off by > 2 px.
+  // vs the lit middle (above 80). Measured: mean confidence 0.095 vs 0.33;
+  // 7.5% confident in the dark, none of them off by > 2 px.
   const MatcherRun& run = bdisRun("dark_periphery");
   const RegionStats dark = regionStats(run, [](const SyntheticFrame& f) { return grey(f.left) < 40; });
   const RegionStats lit = regionStats(run, [](const SyntheticFrame& f) { return grey(f.left) > 80; });
@@ -206,8 +216,9 @@ TEST(SyntheticBehaviour, DarkPeripheryLowersConfidenceRatherThanGuessing) {
 
 TEST(SyntheticBehaviour, SpecularHighlightsDoNotPullConfidentDepths) {
   // Highlight pixels (specular radiance >= 0.1 of saturation in either view)
-  // of the specular variant. Measured: 82% confident, 0.83% confident and off
-  // by > 2 px.
+  // of the specular variant. Measured: 77% confident, none of them off by
+  // > 2 px (0.83% before clipped pixels were left out and the confidence saw
+  // the patches' disagreement).
   const MatcherRun& run = bdisRun("specular");
   const RegionStats hl = regionStats(run, [](const SyntheticFrame& f) {
     const cv::Mat right = warpRightToLeft(f.specular_right, f.gt);
@@ -215,7 +226,78 @@ TEST(SyntheticBehaviour, SpecularHighlightsDoNotPullConfidentDepths) {
   });
   print("highlights", hl);
   EXPECT_GT(hl.pixels, 30000);
-  EXPECT_LE(hl.share(hl.confident_bad2), 0.015);
+  EXPECT_LE(hl.share(hl.confident_bad2), 0.005);
+}
+
+/// The estimates of a run pooled for the confidence and variance analyses.
+bdis::EstimateSamples samplesOf(const MatcherRun& run) {
+  bdis::EstimateSamples samples;
+  for (size_t k = 0; k < run.frames.size(); ++k) {
+    const SyntheticFrame& f = *run.frames[k];
+    const bdis::MatchResult& r = run.results[k];
+    samples.add(r.disparity, f.gt, bdis::classifyPixels(f.gt, f.left), r.confidence, r.variance);
+  }
+  return samples;
+}
+
+TEST(SyntheticBehaviour, ConfidenceRanksTheErrors) {
+  // A higher confidence has fewer outliers: bad2 falls from each tenth of
+  // the estimates to the next more confident one, and the most confident
+  // half holds few. Measured (bad2 of the most confident 50 %, and of each
+  // tenth, least confident first):
+  //   instrument     0.0 %: 25.3  9.4  3.4  1.4 0.2 0.0 0.0 0.0 0.0 0.0
+  //   tube           6.0 %: 30.2 18.6 14.3 10.1 8.2 7.9 7.5 6.1 5.0 3.6
+  //   dark_periphery 0.4 %: 33.3 20.5 15.4 13.0 8.9 2.2 0.0 0.0 0.0 0.0
+  const std::map<std::string, double> max_top50 = {{"instrument", 0.01}, {"tube", 0.08}, {"dark_periphery", 0.02}};
+  for (const auto& [name, bar] : max_top50) {
+    const bdis::Sparsification s = bdis::sparsify(samplesOf(bdisRun(name)));
+    std::printf("  %-15s bad2 of the most confident half %.1f %%, deciles:", name.c_str(), 100 * s.bad2_top50);
+    for (double d : s.decile_bad2) std::printf(" %.1f", 100 * d);
+    std::printf("; sparsification %.2f x the oracle's\n", s.ratio());
+    EXPECT_TRUE(s.monotone()) << name;
+    EXPECT_LE(s.bad2_top50, bar) << name;
+  }
+}
+
+TEST(SyntheticBehaviour, VarianceDescribesTheErrorsAsAStandardDeviation) {
+  // With compute_variance on the colon-like tube: the share of errors within
+  // 1 and 2 sigma where a Gaussian has 68 % and 95 %. Measured: 75 % and 92 %.
+  bdis::MatcherParams params;
+  params.compute_variance = true;
+  bdis::Matcher matcher(params);
+  bdis::EstimateSamples samples;
+  for (int i : kFrames) {
+    const SyntheticFrame& f = cachedFrame(variant("tube"), i);
+    bdis::MatchResult r;
+    matcher.compute(f.left, f.right, r);
+    samples.add(r.disparity, f.gt, bdis::classifyPixels(f.gt, f.left), r.confidence, r.variance);
+  }
+  const bdis::VarianceCalibration c = bdis::calibrateVariance(samples);
+  std::printf("  tube: %.1f %% of the errors within 1 sigma, %.1f %% within 2, median |e| / sigma %.3f\n",
+              100 * c.within1, 100 * c.within2, c.median_ratio);
+  EXPECT_GE(c.within1, 0.60);
+  EXPECT_LE(c.within1, 0.85);
+  EXPECT_GE(c.within2, 0.88);
+}
+
+TEST(SyntheticBehaviour, ClippedHighlightsGetNoEstimate) {
+  // A clipped highlight (grey 255) holds no texture, and it sits elsewhere on
+  // the tissue in the other view: the pixels in it get no estimate.
+  const MatcherRun& run = bdisRun("specular");
+  long clipped = 0, estimated = 0;
+  for (size_t k = 0; k < run.frames.size(); ++k) {
+    const cv::Mat1b g = grey(run.frames[k]->left);
+    for (int y = 0; y < g.rows; ++y) {
+      for (int x = 0; x < g.cols; ++x) {
+        if (g(y, x) < 255) continue;
+        ++clipped;
+        estimated += run.results[k].disparity.at<float>(y, x) >= 0.f ? 1 : 0;
+      }
+    }
+  }
+  std::printf("  clipped pixels %ld, estimated %ld\n", clipped, estimated);
+  EXPECT_GT(clipped, 1000);
+  EXPECT_EQ(estimated, 0);
 }
 
 TEST(SearchBands, DefaultBandsScoreAsTheWholeLevelSearch) {
