@@ -216,14 +216,15 @@ std::string readCompressedImageHeader(const uint8_t* data, std::size_t size, Com
 
 std::string decodeCompressedImage(const sensor_msgs::CompressedImage& msg, const char* side, std::size_t max_pixels,
                                   sensor_msgs::Image& image) {
-  const std::string what = std::string(side) + " compressed image (format '" + msg.format + "')";
-  if (msg.data.size() > static_cast<std::size_t>(std::numeric_limits<int>::max())) return what + " is too large";
+  // The messages are composed only on failure: no strings are built for a good frame.
+  const auto what = [&msg, side] { return std::string(side) + " compressed image (format '" + msg.format + "')"; };
+  if (msg.data.size() > static_cast<std::size_t>(std::numeric_limits<int>::max())) return what() + " is too large";
   CompressedImageHeader h;
   const std::string header_error = readCompressedImageHeader(msg.data.data(), msg.data.size(), h);
-  if (!header_error.empty()) return what + " " + header_error + ": the frame cannot be decoded";
+  if (!header_error.empty()) return what() + " " + header_error + ": the frame cannot be decoded";
   const char* kind = h.format == CompressedImageHeader::Format::Jpeg ? "JPEG" : "PNG";
   if (h.bit_depth > 8) {
-    return what + " is a " + std::to_string(h.bit_depth) + "-bit " + kind +
+    return what() + " is a " + std::to_string(h.bit_depth) + "-bit " + kind +
            ": supported are 8-bit JPEG and PNG (mono8, bgr8 or rgb8 images compressed); convert 16-bit "
            "images to 8 bits first";
   }
@@ -245,7 +246,6 @@ std::string decodeCompressedImage(const sensor_msgs::CompressedImage& msg, const
   static const uint8_t kCanary[8] = {0x5A, 0xA5, 0x3C, 0xC3, 0x96, 0x69, 0x0F, 0xF0};
   std::memcpy(image.data.data(), kCanary, sizeof kCanary);  // at least kMinImageSide^2 bytes
   const int flags = (h.channels == 1 ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR) | cv::IMREAD_IGNORE_ORIENTATION;
-  const std::string corrupt = what + " is a corrupt " + kind + ": OpenCV cannot decode it";
   try {
     const cv::Mat encoded(1, static_cast<int>(msg.data.size()), CV_8UC1, const_cast<uint8_t*>(msg.data.data()));
     cv::Mat decoded = target;
@@ -253,15 +253,15 @@ std::string decodeCompressedImage(const sensor_msgs::CompressedImage& msg, const
     if (decoded.data == target.data && std::memcmp(target.data, kCanary, sizeof kCanary) == 0) {
       decoded = cv::imdecode(encoded, flags);
     }
-    if (decoded.empty()) return corrupt;
+    if (decoded.empty()) return what() + " is a corrupt " + kind + ": OpenCV cannot decode it";
     if (decoded.size() != target.size() || decoded.type() != target.type()) {
-      return what + " decoded to " + std::to_string(decoded.cols) + "x" + std::to_string(decoded.rows) + "x" +
+      return what() + " decoded to " + std::to_string(decoded.cols) + "x" + std::to_string(decoded.rows) + "x" +
              std::to_string(decoded.channels()) + " instead of the " + std::to_string(h.width) + "x" +
              std::to_string(h.height) + "x" + std::to_string(h.channels) + " its header gives";
     }
     if (decoded.data != target.data) decoded.copyTo(target);
   } catch (const cv::Exception& e) {
-    return what + " cannot be decoded (" + kind + "): " + e.what();
+    return what() + " cannot be decoded (" + kind + "): " + e.what();
   }
   return "";
 }
