@@ -1,7 +1,8 @@
 """What the package's Python programs and tests share, written once: a free
 port, the package's programs and embedded sample, camera.yaml, sensor_msgs
-to and from numpy, waiting for a condition, what the ROS master knows, and
-stopping a process group. Installed beside bdis_demo and bdis_make_bag, which import it by
+to and from numpy (raw, compressed, distorted as a camera would see a
+rectified image), the demo's pictures and PLY clouds, a bag's stereo inputs, waiting for a condition, what the
+ROS master knows, and stopping a process group. Installed beside bdis_demo and bdis_make_bag, which import it by
 path, as do the tests (test/demo, test/ros); the shell scripts reach it through
 scripts/common.sh, which runs it as a command:
 
@@ -159,28 +160,107 @@ def image_msg(array, frame_id, stamp=None, encoding=None):
     return msg
 
 
-def camera_info_msg(p, width, height, frame_id, stamp=None):
-    """sensor_msgs/CameraInfo of a rectified camera with projection `p` (12
-    entries): K from P, no distortion, identity R."""
+def camera_info_msg(p, width, height, frame_id, stamp=None, d=None, model="plumb_bob"):
+    """sensor_msgs/CameraInfo of a camera with projection `p` (12 entries): K
+    from P, identity R, and no distortion (a rectified camera) or `d` of
+    `model` (a raw camera as its calibrator describes it)."""
     from sensor_msgs.msg import CameraInfo
     info = CameraInfo()
     if stamp is not None:
         info.header.stamp = stamp
     info.header.frame_id = frame_id
     info.width, info.height = width, height
-    info.distortion_model = "plumb_bob"
-    info.D = [0.0] * 5
+    info.distortion_model = model
+    info.D = list(d) if d is not None else [0.0] * 5
     info.K = [p[0], 0.0, p[2], 0.0, p[5], p[6], 0.0, 0.0, 1.0]
     info.R = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
     info.P = list(p)
     return info
 
 
-def image_array(msg):
-    """sensor_msgs/Image -> numpy (the encodings the nodelet publishes or takes;
-    colour as BGR)."""
+def parse_compression(spec):
+    """--compress: "jpeg" (quality 95), "jpeg:Q" (Q in 1..100) or "png".
+    Returns (format, quality or None); raises Failure."""
+    fmt, _, quality = spec.partition(":")
+    if fmt == "png" and not quality:
+        return "png", None
+    if fmt == "jpeg":
+        try:
+            q = int(quality) if quality else 95
+        except ValueError:
+            q = 0
+        if 1 <= q <= 100:
+            return "jpeg", q
+    raise Failure("compression %r: give jpeg, jpeg:QUALITY (1..100) or png" % spec)
+
+
+def compressed_image_msg(array, frame_id, compression, stamp=None):
+    """sensor_msgs/CompressedImage of a mono8 or bgr8 numpy image, as
+    compressed_image_transport writes it (format "bgr8; jpeg compressed bgr8")."""
+    import cv2
+    from sensor_msgs.msg import CompressedImage
+    fmt, quality = parse_compression(compression)
+    params = [cv2.IMWRITE_JPEG_QUALITY, quality] if fmt == "jpeg" else [cv2.IMWRITE_PNG_COMPRESSION, 3]
+    ok, data = cv2.imencode(".jpg" if fmt == "jpeg" else ".png", array, params)
+    if not ok:
+        raise Failure("OpenCV cannot encode a %s image as %s" % (array.dtype, fmt))
+    encoding = "mono8" if array.ndim == 2 else "bgr8"
+    msg = CompressedImage()
+    if stamp is not None:
+        msg.header.stamp = stamp
+    msg.header.frame_id = frame_id
+    msg.format = "%s; %s compressed %s" % (encoding, fmt, encoding)
+    msg.data = data.tobytes()
+    return msg
+
+
+# Distortion coefficients of each model image_geometry undistorts.
+DISTORTION_COEFFICIENTS = {"plumb_bob": 5, "rational_polynomial": 8, "equidistant": 4}
+
+
+def distortion_vector(coefficients, model):
+    """`coefficients` (k1, k2, ...) padded with zeros to the model's length."""
+    if model not in DISTORTION_COEFFICIENTS:
+        raise Failure("distortion model %r: one of %s" % (model, ", ".join(sorted(DISTORTION_COEFFICIENTS))))
+    n = DISTORTION_COEFFICIENTS[model]
+    if len(coefficients) > n:
+        raise Failure("%s has %d distortion coefficients, not %d" % (model, n, len(coefficients)))
+    return [float(c) for c in coefficients] + [0.0] * (n - len(coefficients))
+
+
+def distort_image(image, k, d, model="plumb_bob"):
+    """The raw image a camera with intrinsics `k` (3x3), distortion `d` of
+    `model`, R = I and P = K takes of a scene whose rectified image is
+    `image`: each raw pixel samples `image` (bilinear) where its ray meets
+    the rectified image, found by undistorting the pixel. Black where that is
+    outside. Test data for the raw input, not the pipeline's undistortion."""
     import cv2
     import numpy as np
+    h, w = image.shape[:2]
+    k = np.asarray(k, np.float64).reshape(3, 3)
+    d = np.asarray(d, np.float64)
+    xs, ys = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
+    pixels = np.stack([xs.ravel(), ys.ravel()], 1).reshape(-1, 1, 2)
+    if model == "equidistant":
+        rectified = cv2.fisheye.undistortPoints(pixels, k, d, R=np.eye(3), P=k)
+    else:
+        criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
+        rectified = cv2.undistortPointsIter(pixels, k, d, np.eye(3), k, criteria)
+    maps = rectified.reshape(h, w, 2).astype(np.float32)
+    return cv2.remap(image, maps[..., 0], maps[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                     borderValue=0)
+
+
+def image_array(msg):
+    """sensor_msgs/Image or CompressedImage -> numpy (the encodings the
+    nodelet publishes or takes; colour as BGR)."""
+    import cv2
+    import numpy as np
+    if hasattr(msg, "format"):  # CompressedImage
+        array = cv2.imdecode(np.frombuffer(msg.data, np.uint8), cv2.IMREAD_UNCHANGED)
+        if array is None:
+            raise Failure("cannot decode a compressed image (format %r)" % msg.format)
+        return array
     dtypes = {"32FC1": (np.float32, 1), "mono8": (np.uint8, 1), "bgr8": (np.uint8, 3),
               "rgb8": (np.uint8, 3), "bgra8": (np.uint8, 4), "rgba8": (np.uint8, 4)}
     if msg.encoding not in dtypes:
@@ -205,6 +285,134 @@ def cloud_array(msg):
     dtype = np.dtype({"names": names, "formats": ["<f4"] * len(names),
                       "offsets": [f.offset for f in msg.fields], "itemsize": msg.point_step})
     return np.frombuffer(msg.data, dtype=dtype).reshape(msg.height, msg.width)
+
+
+# ---------------------------------------------------------------- pictures (bdis_demo)
+MONTAGE_PANEL = (320, 240)  # width, height of one panel
+
+
+def colour_map(values, valid, lo, hi):
+    import cv2
+    import numpy as np
+    scaled = np.zeros(values.shape, np.uint8)
+    if hi > lo:
+        scaled = np.clip((values - lo) / (hi - lo) * 255.0, 0, 255).astype(np.uint8)
+    out = cv2.applyColorMap(scaled, cv2.COLORMAP_TURBO)
+    out[~valid] = 0
+    return out
+
+
+def labelled(panel, text):
+    import cv2
+    panel = cv2.resize(panel, MONTAGE_PANEL, interpolation=cv2.INTER_AREA)
+    cv2.rectangle(panel, (0, 0), (MONTAGE_PANEL[0], 18), (0, 0, 0), -1)
+    cv2.putText(panel, text, (4, 13), cv2.FONT_HERSHEY_SIMPLEX, 0.42, (255, 255, 255), 1, cv2.LINE_AA)
+    return panel
+
+
+def write_montage(path, msgs, left_label):
+    """left | disparity (turbo) / confidence (grey) | depth (turbo), from the
+    messages of one frame: "left" (Image or CompressedImage), "disparity",
+    "confidence", "depth"."""
+    import cv2
+    import numpy as np
+    left = image_array(msgs["left"]) if msgs.get("left") is not None else None
+    d = image_array(msgs["disparity"].image)
+    valid = d >= 0
+    if left is None:
+        left = np.zeros(d.shape + (3,), np.uint8)
+    elif left.ndim == 2:
+        left = cv2.cvtColor(left, cv2.COLOR_GRAY2BGR)
+    d_lo, d_hi = (np.percentile(d[valid], [1, 99]) if valid.any() else (0, 1))
+    panels = [labelled(left, left_label),
+              labelled(colour_map(d, valid, d_lo, d_hi),
+                       "disparity %.0f-%.0f px (black: none)" % (d_lo, d_hi))]
+    conf = image_array(msgs["confidence"]) if "confidence" in msgs else np.zeros_like(d)
+    panels.append(labelled(cv2.cvtColor((np.clip(conf, 0, 1) * 255).astype(np.uint8), cv2.COLOR_GRAY2BGR),
+                           "confidence 0 (black) - 1 (white)"))
+    depth = image_array(msgs["depth"]) if "depth" in msgs else np.full_like(d, np.nan)
+    finite = np.isfinite(depth)
+    z_lo, z_hi = (np.percentile(depth[finite], [1, 99]) if finite.any() else (0, 1))
+    # Near is warm: reversed so the instrument stands out against the tissue.
+    panels.append(labelled(colour_map(z_hi + z_lo - np.nan_to_num(depth, nan=z_hi), finite, z_lo, z_hi),
+                           "depth %.3g-%.3g m (red: near)" % (z_lo, z_hi)))
+    top = np.hstack(panels[:2])
+    bottom = np.hstack(panels[2:])
+    if not cv2.imwrite(path, np.vstack([top, bottom])):
+        raise Failure("cannot write " + path)
+
+
+def write_ply(path, cloud):
+    """Binary little-endian PLY of the finite points, with colour when the
+    cloud has the packed rgb field. Returns the number of points."""
+    import numpy as np
+    points = cloud_array(cloud).reshape(-1)
+    if not all(k in points.dtype.names for k in "xyz"):
+        raise Failure("points2 has no x, y, z fields")
+    xyz = np.stack([points[k] for k in "xyz"], 1)
+    finite = np.all(np.isfinite(xyz), axis=1)
+    xyz = xyz[finite]
+    if "rgb" in points.dtype.names:
+        rgb = points["rgb"][finite].copy().view("<u4")
+        colour = np.stack([(rgb >> 16) & 255, (rgb >> 8) & 255, rgb & 255], 1).astype(np.uint8)
+    else:
+        colour = np.full((len(xyz), 3), 200, np.uint8)
+    vertex = np.empty(len(xyz), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
+                                       ("red", "u1"), ("green", "u1"), ("blue", "u1")])
+    for i, k in enumerate("xyz"):
+        vertex[k] = xyz[:, i]
+    vertex["red"], vertex["green"], vertex["blue"] = colour[:, 0], colour[:, 1], colour[:, 2]
+    header = ("ply\nformat binary_little_endian 1.0\ncomment bdis_stereo points2, frame %s\n"
+              "element vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
+              "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n"
+              % (cloud.header.frame_id, len(vertex)))
+    with open(path, "wb") as f:
+        f.write(header.encode("ascii"))
+        f.write(vertex.tobytes())
+    return len(vertex)
+
+
+# ---------------------------------------------------------------- a bag's inputs
+def bag_topic_types(bag_path):
+    """{topic: message type} of a bag."""
+    import rosbag
+    with rosbag.Bag(bag_path) as bag:
+        return {name: t.msg_type for name, t in bag.get_type_and_topic_info().topics.items()}
+
+
+def bag_image_topic(types, topic):
+    """Where the images of `topic` (a base name, or one ending in /compressed)
+    are in a bag with topics `types`: (bag topic, base topic, compressed), or
+    None. sensor_msgs/Image on the topic itself, sensor_msgs/CompressedImage
+    on it or on <topic>/compressed."""
+    base = topic[:-len("/compressed")] if topic.endswith("/compressed") else topic
+    for candidate in (topic, base + "/compressed"):
+        kind = types.get(candidate)
+        if kind == "sensor_msgs/Image":
+            return candidate, base, False
+        if kind == "sensor_msgs/CompressedImage":
+            return candidate, base, True
+    return None
+
+
+def stereo_bag_inputs(types, left_image, right_image):
+    """The two image topics of a bag: ((bag topic, base topic) left, right),
+    compressed, raw. Raw (to rectify) when the base topics end in image_raw.
+    Raises Failure when a topic is missing or the two differ in kind."""
+    found = []
+    for side, topic in (("left", left_image), ("right", right_image)):
+        where = bag_image_topic(types, topic)
+        if where is None:
+            images = sorted(t for t, kind in types.items() if kind.startswith("sensor_msgs/") and "Image" in kind)
+            raise Failure("the bag has no images on %s (nor %s/compressed); its image topics: %s; name them with "
+                          "--%s-image" % (topic, topic, ", ".join(images) or "none", side))
+        found.append(where)
+    if found[0][2] != found[1][2]:
+        raise Failure("one image topic is compressed and the other is not: %s, %s" % (found[0][0], found[1][0]))
+    raw = [f[1].endswith("image_raw") for f in found]
+    if raw[0] != raw[1]:
+        raise Failure("one image topic is raw and the other is not: %s, %s" % (found[0][1], found[1][1]))
+    return (found[0][:2], found[1][:2]), found[0][2], raw[0]
 
 
 # ---------------------------------------------------------------- the ROS master

@@ -22,6 +22,9 @@ DEBIAN_PACKAGES=(
   libnodelet-dev libnodeletlib-dev libnodeletlib-tools pluginlib-dev libimage-transport-dev
   libmessage-filters-dev libimage-geometry-dev libstereo-msgs-dev libtf2-dev libtf2-ros-dev
   libdiagnostic-updater-dev python3-dynamic-reconfigure libdynamic-reconfigure-config-init-mutex-dev
+  # rectify:=true: the image_proc/rectify nodelet (its package.xml in ros-image-proc;
+  # its nodelet_plugins.xml and the libimage_proc.so pluginlib loads in the -dev package)
+  ros-image-proc libimage-proc-dev
   rosbash python3-roslaunch python3-rosbag python3-rospy python3-yaml python3-numpy python3-opencv
   # rostests: the test nodes are Python
   librostest-dev python3-rostest python3-sensor-msgs python3-stereo-msgs python3-geometry-msgs

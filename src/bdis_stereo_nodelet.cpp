@@ -1,5 +1,10 @@
 #include "bdis_stereo_nodelet.hpp"
 
+#include <algorithm>
+#include <string>
+#include <utility>
+#include <vector>
+
 #include <pluginlib/class_list_macros.hpp>
 
 namespace bdis_stereo {
@@ -36,10 +41,20 @@ void BdisStereoNodelet::onInit() {
   worker_ = std::thread(&BdisStereoNodelet::workerLoop, this);
 
   it_.reset(new image_transport::ImageTransport(nh));
-  inputs_.reset(new InputSync(getName(), params_.approximate_sync, params_.queue_size,
-                              [this](const sensor_msgs::ImageConstPtr& l, const sensor_msgs::ImageConstPtr& r,
-                                     const sensor_msgs::CameraInfoConstPtr& li,
-                                     const sensor_msgs::CameraInfoConstPtr& ri) { pairCb(l, r, li, ri); }));
+  const bool builtin = builtinDecoding();
+  const ImageSource source =
+      params_.rectify ? ImageSource::Rectified : builtin ? ImageSource::BuiltinCompressed : ImageSource::Transport;
+  inputs_.reset(new InputSync(getName(), params_.approximate_sync, params_.queue_size, source,
+                              [this](StereoFrame frame) { pairCb(std::move(frame)); }));
+  if (params_.rectify) {
+    rectify_feed_.reset(new RectifyFeed(getName(), params_.queue_size,
+                                        static_cast<std::size_t>(params_.max_image_pixels), builtin,
+                                        [this](const std::string& what) { rawFrameRejected(what); }));
+    rectify_feed_->advertise(nh);
+    NODELET_INFO("bdis_stereo: rectify on: %s/{left,right}/image_raw%s and camera_info, checked, to image_proc/rectify "
+                 "(%s/{left,right}/rectify_input); matching their image_rect",
+                 nh.getNamespace().c_str(), builtin ? "/compressed" : "", nh.getNamespace().c_str());
+  }
 
   updater_.reset(new diagnostic_updater::Updater(nh, pnh, getName()));
   updater_->setHardwareID("none");
@@ -69,15 +84,47 @@ StartupParams BdisStereoNodelet::loadStartupParams() {
   return params;
 }
 
+// image_transport "compressed" without its plugin (Debian 12 packages none):
+// the nodelet subscribes to the CompressedImage topics and decodes them
+// itself. Said once, whichever way it goes.
+bool BdisStereoNodelet::builtinDecoding() {
+  if (params_.image_transport == "raw") return false;
+  std::vector<std::string> loadable;
+  try {
+    loadable = it_->getLoadableTransports();  // "image_transport/raw", "image_transport/compressed", ...
+  } catch (const std::exception& e) {
+    NODELET_WARN("cannot list the image_transport plugins: %s", e.what());
+  }
+  const bool plugin =
+      std::find(loadable.begin(), loadable.end(), "image_transport/" + params_.image_transport) != loadable.end();
+  if (params_.image_transport != "compressed") {
+    if (!plugin) {
+      NODELET_ERROR("image_transport '%s': its plugin is not installed; the images cannot be received",
+                    params_.image_transport.c_str());
+    }
+    return false;
+  }
+  if (plugin) {
+    NODELET_INFO("image_transport 'compressed': decoding through the compressed_image_transport plugin");
+  } else {
+    NODELET_INFO("image_transport 'compressed': the compressed_image_transport plugin is not installed; "
+                 "subscribing to <image topic>/compressed (sensor_msgs/CompressedImage) and decoding JPEG and PNG "
+                 "with OpenCV (built-in decoding)");
+  }
+  return !plugin;
+}
+
 // Lazy subscription: the inputs only while some output has a subscriber.
 void BdisStereoNodelet::connectCb() {
   try {
     std::lock_guard<std::mutex> lock(connect_mutex_);
     if (!outputs_.wanted().any()) {
       inputs_->unsubscribe();
+      if (rectify_feed_) rectify_feed_->unsubscribe();
     } else if (!inputs_->subscribed()) {
       const image_transport::TransportHints hints(params_.image_transport, ros::TransportHints(),
                                                   getPrivateNodeHandle());
+      if (rectify_feed_) rectify_feed_->subscribe(*it_, getNodeHandle(), hints);
       inputs_->subscribe(*it_, getNodeHandle(), hints);
     }
   } catch (const std::exception& e) {  // e.g. an image_transport plugin that is not installed
@@ -85,13 +132,16 @@ void BdisStereoNodelet::connectCb() {
   }
 }
 
-void BdisStereoNodelet::pairCb(const sensor_msgs::ImageConstPtr& left,
-                               const sensor_msgs::ImageConstPtr& right,
-                               const sensor_msgs::CameraInfoConstPtr& left_info,
-                               const sensor_msgs::CameraInfoConstPtr& right_info) {
-  const ros::WallTime now = ros::WallTime::now();
+void BdisStereoNodelet::pairCb(StereoFrame frame) {
   statistics_.frameIn();
-  if (mailbox_.post(StereoFrame{left, right, left_info, right_info, now})) statistics_.droppedBusy();
+  if (mailbox_.post(std::move(frame))) statistics_.droppedBusy();
+}
+
+// A raw frame that never reached image_proc/rectify: a frame in, rejected,
+// with a message as the pipeline's.
+void BdisStereoNodelet::rawFrameRejected(const std::string& what) {
+  statistics_.frameIn();
+  if (statistics_.rejected(what)) NODELET_ERROR("frame dropped: %s", what.c_str());
 }
 
 void BdisStereoNodelet::workerLoop() {

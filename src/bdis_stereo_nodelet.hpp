@@ -3,6 +3,7 @@
 // stereo_image_proc: it wires the units together.
 //   node_params        the start-up parameters (one table, the core's binder)
 //   input_sync         lazy subscription, synchronisation, per-topic counts
+//   rectify_feed       with rectify on: raw frames checked, to image_proc/rectify
 //   frame_mailbox      the latest synchronised frame for the worker
 //   frame_pipeline     validate -> compute -> publish, on the worker thread
 //   outputs            one publisher and one function per output
@@ -33,6 +34,7 @@
 #include "node_params.hpp"
 #include "node_statistics.hpp"
 #include "outputs.hpp"
+#include "rectify_feed.hpp"
 
 namespace bdis_stereo {
 
@@ -43,10 +45,10 @@ class BdisStereoNodelet : public nodelet::Nodelet {
  private:
   void onInit() override;
   StartupParams loadStartupParams();
+  bool builtinDecoding();
   void connectCb();
-  void pairCb(const sensor_msgs::ImageConstPtr& left, const sensor_msgs::ImageConstPtr& right,
-              const sensor_msgs::CameraInfoConstPtr& left_info,
-              const sensor_msgs::CameraInfoConstPtr& right_info);
+  void pairCb(StereoFrame frame);
+  void rawFrameRejected(const std::string& what);
   void workerLoop();
   void watchdogCb(const ros::WallTimerEvent&);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
@@ -67,6 +69,7 @@ class BdisStereoNodelet : public nodelet::Nodelet {
   std::unique_ptr<FramePipeline> pipeline_;
   std::thread worker_;
   std::unique_ptr<InputSync> inputs_;
+  std::unique_ptr<RectifyFeed> rectify_feed_;  ///< with rectify on
 
   std::unique_ptr<diagnostic_updater::Updater> updater_;
   ros::WallTimer watchdog_timer_;

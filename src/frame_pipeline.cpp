@@ -27,10 +27,13 @@ FramePipeline::FramePipeline(std::string log_name, const NodeParams& params,
 }
 
 void FramePipeline::process(const StereoFrame& frame) {
-  noteStamp(frame.left->header.stamp);
+  noteStamp(frame.leftHeader().stamp);
+  const ros::WallTime start = ros::WallTime::now();  // decoding is part of the frame's processing
   // Validate before anything that asserts or throws sees the frame.
+  InputImages images;
   bdis::StereoCamera camera;
-  const std::string error = validate(frame, camera);
+  std::string error = inputImages(frame, images);
+  if (error.empty()) error = validate(images, frame, camera);
   if (!error.empty()) {
     reject(error);
     return;
@@ -40,11 +43,10 @@ void FramePipeline::process(const StereoFrame& frame) {
   bdis::MatcherParams changed;
   if (reconfigure_.takeChange(changed)) matcher_.setParams(changed);  // validated by reconfigure_
 
-  const ros::WallTime start = ros::WallTime::now();
-  const MatcherInput input = matcherInput(frame);
+  const MatcherInput input = matcherInput(images);
   if (camerasLookSwapped(input, start)) return;
   matcher_.compute(input.left, input.right, result_);
-  publish(frame, camera, input, wanted);
+  publish(images.left->header, *frame.left_info, camera, input, wanted);
 
   const ros::WallTime end = ros::WallTime::now();
   statistics_.frameOut((end - start).toSec() * 1e3, (end - frame.arrival).toSec() * 1e3);
@@ -61,22 +63,40 @@ void FramePipeline::noteStamp(const ros::Time& stamp) {
   last_stamp_ = stamp;
 }
 
-std::string FramePipeline::validate(const StereoFrame& frame, bdis::StereoCamera& camera) const {
+std::string FramePipeline::inputImages(const StereoFrame& frame, InputImages& images) {
   const auto max_pixels = static_cast<std::size_t>(params_.max_image_pixels);
-  std::string error = checkImage(*frame.left, "left", max_pixels);
-  if (error.empty()) error = checkImage(*frame.right, "right", max_pixels);
-  if (error.empty()) error = checkImagePair(*frame.left, *frame.right);
+  images.left = frame.left.get();
+  images.right = frame.right.get();
+  if (frame.left_compressed) {
+    const std::string error = decodeCompressedImage(*frame.left_compressed, "left", max_pixels, decoded_left_);
+    if (!error.empty()) return error;
+    images.left = &decoded_left_;
+  }
+  if (frame.right_compressed) {
+    const std::string error = decodeCompressedImage(*frame.right_compressed, "right", max_pixels, decoded_right_);
+    if (!error.empty()) return error;
+    images.right = &decoded_right_;
+  }
+  return "";
+}
+
+std::string FramePipeline::validate(const InputImages& images, const StereoFrame& frame,
+                                    bdis::StereoCamera& camera) const {
+  const auto max_pixels = static_cast<std::size_t>(params_.max_image_pixels);
+  std::string error = checkImage(*images.left, "left", max_pixels);
+  if (error.empty()) error = checkImage(*images.right, "right", max_pixels);
+  if (error.empty()) error = checkImagePair(*images.left, *images.right);
   if (error.empty()) {
-    error = stereoCameraFromInfo(*frame.left_info, *frame.right_info, static_cast<int>(frame.left->width),
-                                 static_cast<int>(frame.left->height), camera);
+    error = stereoCameraFromInfo(*frame.left_info, *frame.right_info, static_cast<int>(images.left->width),
+                                 static_cast<int>(images.left->height), camera);
   }
   return error;
 }
 
-FramePipeline::MatcherInput FramePipeline::matcherInput(const StereoFrame& frame) {
+FramePipeline::MatcherInput FramePipeline::matcherInput(const InputImages& images) {
   MatcherInput input;
-  input.left = matcherView(*frame.left, left_buffer_);
-  input.right = matcherView(*frame.right, right_buffer_);
+  input.left = matcherView(*images.left, left_buffer_);
+  input.right = matcherView(*images.right, right_buffer_);
   if (input.left.channels() == 3) input.left_colour = input.left;
   if (input.left.channels() != input.right.channels()) {  // one mono, one colour: match in grey
     cv::Mat& colour = input.left.channels() == 3 ? input.left : input.right;
@@ -106,16 +126,15 @@ bool FramePipeline::camerasLookSwapped(const MatcherInput& input, ros::WallTime 
 }
 
 // Every output carries the left image's stamp and frame.
-void FramePipeline::publish(const StereoFrame& frame, const bdis::StereoCamera& camera,
-                            const MatcherInput& input, const WantedOutputs& wanted) {
-  const std_msgs::Header& header = frame.left->header;
+void FramePipeline::publish(const std_msgs::Header& header, const sensor_msgs::CameraInfo& left_info,
+                            const bdis::StereoCamera& camera, const MatcherInput& input, const WantedOutputs& wanted) {
   if (wanted.disparity || wanted.disparity_image) {
     outputs_.publishDisparity(header, result_.disparity, camera, wanted);
   }
   // The depth image: the published message's when there is one, else
   // computed for points2 alone.
   cv::Mat depth;
-  if (wanted.depth) depth = outputs_.publishDepth(header, result_.disparity, camera, *frame.left_info);
+  if (wanted.depth) depth = outputs_.publishDepth(header, result_.disparity, camera, left_info);
   if (wanted.confidence) outputs_.publishConfidence(header, result_.confidence);
   if (wanted.variance && !result_.variance.empty()) outputs_.publishVariance(header, result_.variance);
   if (wanted.points) publishPoints(header, depth, camera, input.left_colour);

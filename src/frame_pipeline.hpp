@@ -14,19 +14,13 @@
 #include <tf2_ros/transform_listener.h>
 
 #include "bdis_stereo/matcher.hpp"
+#include "input_sync.hpp"
 #include "matcher_reconfigure.hpp"
 #include "node_params.hpp"
 #include "node_statistics.hpp"
 #include "outputs.hpp"
 
 namespace bdis_stereo {
-
-/// A synchronised pair and when it formed.
-struct StereoFrame {
-  sensor_msgs::ImageConstPtr left, right;
-  sensor_msgs::CameraInfoConstPtr left_info, right_info;
-  ros::WallTime arrival;
-};
 
 class FramePipeline {
  public:
@@ -36,11 +30,19 @@ class FramePipeline {
                 MatcherReconfigure& reconfigure);
 
   /// The frame's outputs that have a subscriber; nothing when none has one.
+  /// Compressed images are decoded first (into buffers kept from frame to
+  /// frame); one that cannot be is a rejected frame like any bad input.
   /// Throws only for what cannot happen with validated input (the worker
   /// counts it as an error).
   void process(const StereoFrame& frame);
 
  private:
+  /// The frame's two images as sensor_msgs/Image: its own, or decoded here.
+  struct InputImages {
+    const sensor_msgs::Image* left = nullptr;
+    const sensor_msgs::Image* right = nullptr;
+  };
+
   /// The images the matcher takes: grey or BGR views, both the same kind.
   struct MatcherInput {
     cv::Mat left, right;
@@ -48,11 +50,12 @@ class FramePipeline {
   };
 
   void noteStamp(const ros::Time& stamp);
-  std::string validate(const StereoFrame& frame, bdis::StereoCamera& camera) const;
-  MatcherInput matcherInput(const StereoFrame& frame);
+  std::string inputImages(const StereoFrame& frame, InputImages& images);
+  std::string validate(const InputImages& images, const StereoFrame& frame, bdis::StereoCamera& camera) const;
+  MatcherInput matcherInput(const InputImages& images);
   bool camerasLookSwapped(const MatcherInput& input, ros::WallTime now);
-  void publish(const StereoFrame& frame, const bdis::StereoCamera& camera, const MatcherInput& input,
-               const WantedOutputs& wanted);
+  void publish(const std_msgs::Header& header, const sensor_msgs::CameraInfo& left_info,
+               const bdis::StereoCamera& camera, const MatcherInput& input, const WantedOutputs& wanted);
   void publishPoints(const std_msgs::Header& header, cv::Mat depth, const bdis::StereoCamera& camera,
                      const cv::Mat& left_colour);
   bool cloudTransform(const std_msgs::Header& header, RigidTransform& transform) const;
@@ -73,6 +76,7 @@ class FramePipeline {
   // Reused from frame to frame (no allocation once the size is known).
   cv::Mat left_buffer_, right_buffer_, grey_buffer_;
   cv::Mat depth_buffer_;  ///< depth for points2 while depth/image_rect has no subscriber
+  sensor_msgs::Image decoded_left_, decoded_right_;  ///< built-in decoding of compressed frames
   ros::Time last_stamp_;
   ros::WallTime last_sign_check_;
   bool looks_swapped_ = false;

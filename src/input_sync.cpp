@@ -1,5 +1,6 @@
 #include "input_sync.hpp"
 
+#include <type_traits>
 #include <utility>
 
 namespace bdis_stereo {
@@ -7,17 +8,25 @@ namespace {
 const char* const kInputNames[] = {"left image", "right image", "left camera_info", "right camera_info"};
 }  // namespace
 
-InputSync::InputSync(std::string log_name, bool approximate_sync, int queue_size, PairCallback on_pair)
+InputSync::InputSync(std::string log_name, bool approximate_sync, int queue_size, ImageSource source,
+                     PairCallback on_pair)
     : log_name_(std::move(log_name)),
       approximate_sync_(approximate_sync),
       queue_size_(queue_size),
+      source_(source),
       on_pair_(std::move(on_pair)),
       last_pair_time_(ros::WallTime::now()) {
   createSync();
-  left_image_.registerCallback(boost::function<void(const sensor_msgs::ImageConstPtr&)>(
-      [this](const sensor_msgs::ImageConstPtr& m) { feed<0>(m); }));
-  right_image_.registerCallback(boost::function<void(const sensor_msgs::ImageConstPtr&)>(
-      [this](const sensor_msgs::ImageConstPtr& m) { feed<1>(m); }));
+  using ImageCallback = boost::function<void(const sensor_msgs::ImageConstPtr&)>;
+  using CompressedCallback = boost::function<void(const sensor_msgs::CompressedImageConstPtr&)>;
+  left_transport_.registerCallback(ImageCallback([this](const sensor_msgs::ImageConstPtr& m) { feed<0>(m); }));
+  right_transport_.registerCallback(ImageCallback([this](const sensor_msgs::ImageConstPtr& m) { feed<1>(m); }));
+  left_rectified_.registerCallback(ImageCallback([this](const sensor_msgs::ImageConstPtr& m) { feed<0>(m); }));
+  right_rectified_.registerCallback(ImageCallback([this](const sensor_msgs::ImageConstPtr& m) { feed<1>(m); }));
+  left_compressed_.registerCallback(
+      CompressedCallback([this](const sensor_msgs::CompressedImageConstPtr& m) { feed<0>(m); }));
+  right_compressed_.registerCallback(
+      CompressedCallback([this](const sensor_msgs::CompressedImageConstPtr& m) { feed<1>(m); }));
   left_info_.registerCallback(boost::function<void(const sensor_msgs::CameraInfoConstPtr&)>(
       [this](const sensor_msgs::CameraInfoConstPtr& m) { feed<2>(m); }));
   right_info_.registerCallback(boost::function<void(const sensor_msgs::CameraInfoConstPtr&)>(
@@ -28,8 +37,20 @@ void InputSync::subscribe(image_transport::ImageTransport& it, ros::NodeHandle& 
                           const image_transport::TransportHints& hints) {
   std::lock_guard<std::mutex> lock(connection_mutex_);
   if (subscribed_) return;
-  left_image_.subscribe(it, "left/image_rect", queue_size_, hints);
-  right_image_.subscribe(it, "right/image_rect", queue_size_, hints);
+  switch (source_) {
+    case ImageSource::Transport:
+      left_transport_.subscribe(it, "left/image_rect", queue_size_, hints);
+      right_transport_.subscribe(it, "right/image_rect", queue_size_, hints);
+      break;
+    case ImageSource::BuiltinCompressed:
+      left_compressed_.subscribe(nh, "left/image_rect/compressed", queue_size_);
+      right_compressed_.subscribe(nh, "right/image_rect/compressed", queue_size_);
+      break;
+    case ImageSource::Rectified:
+      left_rectified_.subscribe(nh, "left/image_rect", queue_size_);
+      right_rectified_.subscribe(nh, "right/image_rect", queue_size_);
+      break;
+  }
   left_info_.subscribe(nh, "left/camera_info", queue_size_);
   right_info_.subscribe(nh, "right/camera_info", queue_size_);
   subscribed_ = true;
@@ -39,20 +60,36 @@ void InputSync::subscribe(image_transport::ImageTransport& it, ros::NodeHandle& 
     last_pair_time_ = ros::WallTime::now();
     at_last_pair_ = counts_;
   }
-  ROS_DEBUG_NAMED(log_name_, "output subscribed: subscribing to %s, %s, %s, %s",
-                  left_image_.getTopic().c_str(), right_image_.getTopic().c_str(),
-                  left_info_.getTopic().c_str(), right_info_.getTopic().c_str());
+  const std::array<std::string, 2> images = imageTopics();
+  ROS_DEBUG_NAMED(log_name_, "output subscribed: subscribing to %s, %s, %s, %s", images[0].c_str(),
+                  images[1].c_str(), left_info_.getTopic().c_str(), right_info_.getTopic().c_str());
 }
 
 void InputSync::unsubscribe() {
   std::lock_guard<std::mutex> lock(connection_mutex_);
   if (!subscribed_) return;
-  left_image_.unsubscribe();
-  right_image_.unsubscribe();
+  left_transport_.unsubscribe();
+  right_transport_.unsubscribe();
+  left_compressed_.unsubscribe();
+  right_compressed_.unsubscribe();
+  left_rectified_.unsubscribe();
+  right_rectified_.unsubscribe();
   left_info_.unsubscribe();
   right_info_.unsubscribe();
   subscribed_ = false;
   ROS_DEBUG_NAMED(log_name_, "no output subscribers: unsubscribed from the inputs");
+}
+
+// Called with connection_mutex_ held.
+std::array<std::string, 2> InputSync::imageTopics() const {
+  switch (source_) {
+    case ImageSource::BuiltinCompressed:
+      return {left_compressed_.getTopic(), right_compressed_.getTopic()};
+    case ImageSource::Rectified:
+      return {left_rectified_.getTopic(), right_rectified_.getTopic()};
+    default:
+      return {left_transport_.getTopic(), right_transport_.getTopic()};
+  }
 }
 
 bool InputSync::subscribed() const {
@@ -65,8 +102,8 @@ InputStatus InputSync::status() const {
   {
     std::lock_guard<std::mutex> lock(connection_mutex_);
     s.subscribed = subscribed_;
-    s.topics = {left_image_.getTopic(), right_image_.getTopic(), left_info_.getTopic(),
-                right_info_.getTopic()};
+    const std::array<std::string, 2> images = imageTopics();
+    s.topics = {images[0], images[1], left_info_.getTopic(), right_info_.getTopic()};
   }
   std::lock_guard<std::mutex> lock(sync_mutex_);
   s.seconds_since_pair = (ros::WallTime::now() - last_pair_time_).toSec();
@@ -80,15 +117,36 @@ InputStatus InputSync::status() const {
   return s;
 }
 
+namespace {
+template <class Sync, class Callback>
+std::unique_ptr<message_filters::Synchronizer<Sync>> makeSynchroniser(int queue_size, const Callback& callback) {
+  std::unique_ptr<message_filters::Synchronizer<Sync>> sync(new message_filters::Synchronizer<Sync>(Sync(queue_size)));
+  sync->registerCallback(callback);
+  return sync;
+}
+}  // namespace
+
 void InputSync::createSync() {
-  const auto cb = boost::bind(&InputSync::onPair, this, boost::placeholders::_1, boost::placeholders::_2,
-                              boost::placeholders::_3, boost::placeholders::_4);
-  if (approximate_sync_) {
-    approx_sync_.reset(new message_filters::Synchronizer<ApproxPolicy>(ApproxPolicy(queue_size_)));
-    approx_sync_->registerCallback(cb);
+  using boost::placeholders::_1;
+  using boost::placeholders::_2;
+  using boost::placeholders::_3;
+  using boost::placeholders::_4;
+  image_sync_ = Synchronisers<Image>();
+  compressed_sync_ = Synchronisers<CompressedImage>();
+  if (source_ == ImageSource::BuiltinCompressed) {
+    const auto cb = boost::bind(&InputSync::onCompressedPair, this, _1, _2, _3, _4);
+    if (approximate_sync_) {
+      compressed_sync_.approx = makeSynchroniser<Synchronisers<CompressedImage>::Approx>(queue_size_, cb);
+    } else {
+      compressed_sync_.exact = makeSynchroniser<Synchronisers<CompressedImage>::Exact>(queue_size_, cb);
+    }
   } else {
-    exact_sync_.reset(new message_filters::Synchronizer<ExactPolicy>(ExactPolicy(queue_size_)));
-    exact_sync_->registerCallback(cb);
+    const auto cb = boost::bind(&InputSync::onImagePair, this, _1, _2, _3, _4);
+    if (approximate_sync_) {
+      image_sync_.approx = makeSynchroniser<Synchronisers<Image>::Approx>(queue_size_, cb);
+    } else {
+      image_sync_.exact = makeSynchroniser<Synchronisers<Image>::Exact>(queue_size_, cb);
+    }
   }
   last_stamps_.fill(ros::Time());
 }
@@ -136,19 +194,44 @@ void InputSync::feed(const boost::shared_ptr<M const>& msg) {
     ++counts_.time_jumps;
   }
   last = stamp;
-  if (approx_sync_) {
-    approx_sync_->add<I>(msg);
+  if constexpr (std::is_same<M, CompressedImage>::value) {
+    compressed_sync_.add<I>(msg);
+  } else if constexpr (std::is_same<M, Image>::value) {
+    image_sync_.add<I>(msg);
+  } else if (source_ == ImageSource::BuiltinCompressed) {  // a camera_info
+    compressed_sync_.add<I>(msg);
   } else {
-    exact_sync_->add<I>(msg);
+    image_sync_.add<I>(msg);
   }
 }
 
 // Called from feed(), with sync_mutex_ held.
-void InputSync::onPair(const sensor_msgs::ImageConstPtr& l, const sensor_msgs::ImageConstPtr& r,
-                       const sensor_msgs::CameraInfoConstPtr& li, const sensor_msgs::CameraInfoConstPtr& ri) {
+void InputSync::onImagePair(const sensor_msgs::ImageConstPtr& l, const sensor_msgs::ImageConstPtr& r,
+                            const sensor_msgs::CameraInfoConstPtr& li, const sensor_msgs::CameraInfoConstPtr& ri) {
+  StereoFrame frame;
+  frame.left = l;
+  frame.right = r;
+  frame.left_info = li;
+  frame.right_info = ri;
+  onPair(std::move(frame));
+}
+
+void InputSync::onCompressedPair(const sensor_msgs::CompressedImageConstPtr& l,
+                                 const sensor_msgs::CompressedImageConstPtr& r,
+                                 const sensor_msgs::CameraInfoConstPtr& li, const sensor_msgs::CameraInfoConstPtr& ri) {
+  StereoFrame frame;
+  frame.left_compressed = l;
+  frame.right_compressed = r;
+  frame.left_info = li;
+  frame.right_info = ri;
+  onPair(std::move(frame));
+}
+
+void InputSync::onPair(StereoFrame frame) {
   last_pair_time_ = ros::WallTime::now();
+  frame.arrival = last_pair_time_;
   at_last_pair_ = counts_;
-  on_pair_(l, r, li, ri);
+  on_pair_(std::move(frame));
 }
 
 }  // namespace bdis_stereo

@@ -67,6 +67,9 @@ const std::vector<NodeParam>& nodeParamTable() {
             "queue length of the input subscribers and the synchroniser"),
       entry("image_transport", &NodeParams::image_transport, 0, 0,
             "transport of the input images (raw, compressed, ...)"),
+      entry("rectify", &NodeParams::rectify, 0, 1,
+            "raw inputs (image_raw, calibrated camera_info), rectified by image_proc/rectify "
+            "(bdis_stereo.launch rectify:=true)"),
       entry("organized_cloud", &NodeParams::organized_cloud, 0, 1,
             "points2 on the image grid, NaN where there is no estimate; false: only the valid points"),
       entry("target_frame", &NodeParams::target_frame, 0, 0,

@@ -24,6 +24,7 @@ struct NodeParams {
   bool approximate_sync = false;
   int queue_size = 5;
   std::string image_transport = "raw";
+  bool rectify = false;
   bool organized_cloud = true;
   std::string target_frame;
   double tf_timeout = 0.01;

@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
 
 #include <image_geometry/pinhole_camera_model.h>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <sensor_msgs/distortion_models.h>
 #include <sensor_msgs/image_encodings.h>
 #include <tf2/LinearMath/Matrix3x3.h>
 #include <tf2/LinearMath/Quaternion.h>
@@ -56,6 +59,102 @@ std::string checkProjection(const sensor_msgs::CameraInfo& info, const char* sid
   return "";
 }
 
+// At most max_pixels, at least kMinImageSide per side.
+std::string checkImageSize(const std::string& side, uint64_t width, uint64_t height, std::size_t max_pixels) {
+  if (width * height > max_pixels) {
+    return side + " image is " + std::to_string(width) + "x" + std::to_string(height) +
+           ", more than max_image_pixels = " + std::to_string(max_pixels) +
+           ": downscale the images (image_proc/resize) or raise max_image_pixels";
+  }
+  if (width < static_cast<uint64_t>(bdis::kMinImageSide) || height < static_cast<uint64_t>(bdis::kMinImageSide)) {
+    return side + " image is " + std::to_string(width) + "x" + std::to_string(height) +
+           ": each side must be at least " + std::to_string(bdis::kMinImageSide) + " px";
+  }
+  return "";
+}
+
+uint32_t bigEndian16(const uint8_t* p) { return (static_cast<uint32_t>(p[0]) << 8) | p[1]; }
+uint32_t bigEndian32(const uint8_t* p) { return (bigEndian16(p) << 16) | bigEndian16(p + 2); }
+
+// JPEG: the markers from SOI up to the first scan (SOS), the frame header
+// (SOFn) among them, then an EOI after the scan. 0xFF inside the entropy-coded
+// data is always followed by 0x00 or a restart marker, so FF D9 there is EOI.
+std::string readJpegHeader(const uint8_t* data, std::size_t size, CompressedImageHeader& header) {
+  header.format = CompressedImageHeader::Format::Jpeg;
+  bool have_frame = false;
+  std::size_t pos = 2;  // after SOI
+  for (;;) {
+    if (pos >= size || data[pos] != 0xFF) return "is a corrupt JPEG (no marker where one must be)";
+    while (pos < size && data[pos] == 0xFF) ++pos;  // fill bytes
+    if (pos >= size) return "is a truncated JPEG (it ends inside its header)";
+    const uint8_t marker = data[pos++];
+    if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD8)) continue;  // no length
+    if (marker == 0xD9) return "is a corrupt JPEG (it ends before its first scan)";
+    if (pos + 2 > size) return "is a truncated JPEG (it ends inside its header)";
+    const std::size_t length = bigEndian16(data + pos);
+    if (length < 2 || pos + length > size) return "is a truncated JPEG (it ends inside its header)";
+    const bool frame_header = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
+    if (frame_header) {
+      if (length < 8) return "is a corrupt JPEG (its frame header is too short)";
+      header.bit_depth = data[pos + 2];
+      header.height = static_cast<int>(bigEndian16(data + pos + 3));
+      header.width = static_cast<int>(bigEndian16(data + pos + 5));
+      const int components = data[pos + 7];
+      if (components != 1 && components != 3 && components != 4) {
+        return "is a JPEG with " + std::to_string(components) + " components (1 grey, 3 colour or 4 CMYK expected)";
+      }
+      header.channels = components == 1 ? 1 : 3;
+      have_frame = true;
+    }
+    if (marker == 0xDA) {  // start of scan: entropy-coded data follows
+      if (!have_frame) return "is a corrupt JPEG (a scan before its frame header)";
+      pos += length;
+      break;
+    }
+    pos += length;
+  }
+  for (std::size_t i = size; i >= pos + 2; --i) {
+    if (data[i - 2] == 0xFF && data[i - 1] == 0xD9) return "";
+  }
+  return "is a truncated JPEG (no end-of-image marker)";
+}
+
+// PNG: the signature, IHDR first, then chunks (length, type, data, CRC) up to IEND.
+std::string readPngHeader(const uint8_t* data, std::size_t size, CompressedImageHeader& header) {
+  header.format = CompressedImageHeader::Format::Png;
+  if (size < 8 + 25 || bigEndian32(data + 8) != 13 || std::memcmp(data + 12, "IHDR", 4) != 0) {
+    return "is a corrupt or truncated PNG (no IHDR chunk)";
+  }
+  const uint64_t width = bigEndian32(data + 16), height = bigEndian32(data + 20);
+  if (width > static_cast<uint64_t>(std::numeric_limits<int>::max()) ||
+      height > static_cast<uint64_t>(std::numeric_limits<int>::max())) {
+    return "is a corrupt PNG (size " + std::to_string(width) + "x" + std::to_string(height) + ")";
+  }
+  header.width = static_cast<int>(width);
+  header.height = static_cast<int>(height);
+  header.bit_depth = data[24];
+  switch (data[25]) {  // colour type
+    case 0:  // grey
+    case 4:  // grey and alpha
+      header.channels = 1;
+      break;
+    case 2:  // RGB
+    case 3:  // palette
+    case 6:  // RGBA
+      header.channels = 3;
+      break;
+    default:
+      return "is a corrupt PNG (colour type " + std::to_string(data[25]) + ")";
+  }
+  std::size_t pos = 8;
+  while (pos + 12 <= size) {
+    const uint64_t length = bigEndian32(data + pos);
+    if (std::memcmp(data + pos + 4, "IEND", 4) == 0) return "";
+    pos += 12 + length;
+  }
+  return "is a truncated PNG (no IEND chunk)";
+}
+
 /// Sizes `msg` as a dense 32FC1 image and returns a Mat over its data.
 cv::Mat floatImageOver(int rows, int cols, sensor_msgs::Image& msg) {
   msg.height = rows;
@@ -93,16 +192,8 @@ std::string checkImage(const sensor_msgs::Image& image, const char* side, std::s
            "': supported are mono8, bgr8, rgb8, bgra8, rgba8 (8-bit); convert 16-bit or Bayer "
            "images first (e.g. image_proc)";
   }
-  if (static_cast<std::size_t>(image.width) * image.height > max_pixels) {
-    return s + " image is " + std::to_string(image.width) + "x" + std::to_string(image.height) +
-           ", more than max_image_pixels = " + std::to_string(max_pixels) +
-           ": downscale the images (image_proc/resize) or raise max_image_pixels";
-  }
-  if (static_cast<int>(image.width) < bdis::kMinImageSide ||
-      static_cast<int>(image.height) < bdis::kMinImageSide) {
-    return s + " image is " + std::to_string(image.width) + "x" + std::to_string(image.height) +
-           ": each side must be at least " + std::to_string(bdis::kMinImageSide) + " px";
-  }
+  const std::string size_error = checkImageSize(s, image.width, image.height, max_pixels);
+  if (!size_error.empty()) return size_error;
   const std::size_t row_bytes = static_cast<std::size_t>(image.width) * channelsOf(image.encoding);
   if (image.step < row_bytes ||
       image.data.size() < static_cast<std::size_t>(image.step) * image.height) {
@@ -110,6 +201,141 @@ std::string checkImage(const sensor_msgs::Image& image, const char* side, std::s
            " for width " + std::to_string(image.width) + " (" + image.encoding + ") and " +
            std::to_string(image.data.size()) + " bytes of data for height " +
            std::to_string(image.height);
+  }
+  return "";
+}
+
+std::string readCompressedImageHeader(const uint8_t* data, std::size_t size, CompressedImageHeader& header) {
+  static const uint8_t kPngSignature[8] = {0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A};
+  header = CompressedImageHeader();
+  if (size == 0) return "is empty";
+  if (size >= 2 && data[0] == 0xFF && data[1] == 0xD8) return readJpegHeader(data, size, header);
+  if (size >= 8 && std::memcmp(data, kPngSignature, 8) == 0) return readPngHeader(data, size, header);
+  return "is neither a JPEG nor a PNG";
+}
+
+std::string decodeCompressedImage(const sensor_msgs::CompressedImage& msg, const char* side, std::size_t max_pixels,
+                                  sensor_msgs::Image& image) {
+  // The messages are composed only on failure: no strings are built for a good frame.
+  const auto what = [&msg, side] { return std::string(side) + " compressed image (format '" + msg.format + "')"; };
+  if (msg.data.size() > static_cast<std::size_t>(std::numeric_limits<int>::max())) return what() + " is too large";
+  CompressedImageHeader h;
+  const std::string header_error = readCompressedImageHeader(msg.data.data(), msg.data.size(), h);
+  if (!header_error.empty()) return what() + " " + header_error + ": the frame cannot be decoded";
+  const char* kind = h.format == CompressedImageHeader::Format::Jpeg ? "JPEG" : "PNG";
+  if (h.bit_depth > 8) {
+    return what() + " is a " + std::to_string(h.bit_depth) + "-bit " + kind +
+           ": supported are 8-bit JPEG and PNG (mono8, bgr8 or rgb8 images compressed); convert 16-bit "
+           "images to 8 bits first";
+  }
+  const std::string size_error = checkImageSize(std::string(side), h.width, h.height, max_pixels);
+  if (!size_error.empty()) return size_error + " (" + kind + ")";
+
+  image.header = msg.header;
+  image.height = h.height;
+  image.width = h.width;
+  image.encoding = h.channels == 1 ? enc::MONO8 : enc::BGR8;
+  image.is_bigendian = 0;
+  image.step = h.width * h.channels;
+  image.data.resize(static_cast<std::size_t>(image.step) * image.height);  // no allocation at an unchanged size
+  const cv::Mat target(h.height, h.width, CV_MAKETYPE(CV_8U, h.channels), image.data.data());
+  // imdecode with a destination decodes into it when size and type agree,
+  // but leaves it untouched, saying nothing, when it cannot read the header:
+  // the canary, which decoding overwrites, tells. (An image that happens to
+  // start with it is decoded once more, without a destination, to be sure.)
+  static const uint8_t kCanary[8] = {0x5A, 0xA5, 0x3C, 0xC3, 0x96, 0x69, 0x0F, 0xF0};
+  std::memcpy(image.data.data(), kCanary, sizeof kCanary);  // at least kMinImageSide^2 bytes
+  const int flags = (h.channels == 1 ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR) | cv::IMREAD_IGNORE_ORIENTATION;
+  try {
+    const cv::Mat encoded(1, static_cast<int>(msg.data.size()), CV_8UC1, const_cast<uint8_t*>(msg.data.data()));
+    cv::Mat decoded = target;
+    cv::imdecode(encoded, flags, &decoded);
+    if (decoded.data == target.data && std::memcmp(target.data, kCanary, sizeof kCanary) == 0) {
+      decoded = cv::imdecode(encoded, flags);
+    }
+    if (decoded.empty()) return what() + " is a corrupt " + kind + ": OpenCV cannot decode it";
+    if (decoded.size() != target.size() || decoded.type() != target.type()) {
+      return what() + " decoded to " + std::to_string(decoded.cols) + "x" + std::to_string(decoded.rows) + "x" +
+             std::to_string(decoded.channels()) + " instead of the " + std::to_string(h.width) + "x" +
+             std::to_string(h.height) + "x" + std::to_string(h.channels) + " its header gives";
+    }
+    if (decoded.data != target.data) decoded.copyTo(target);
+  } catch (const cv::Exception& e) {
+    return what() + " cannot be decoded (" + kind + "): " + e.what();
+  }
+  return "";
+}
+
+bool isRectifiableDistortionModel(const std::string& model) {
+  namespace dm = sensor_msgs::distortion_models;
+  return model == dm::PLUMB_BOB || model == dm::RATIONAL_POLYNOMIAL || model == dm::EQUIDISTANT;
+}
+
+std::string checkRawFrame(const sensor_msgs::Image& image, const sensor_msgs::CameraInfo& info, const char* side,
+                          std::size_t max_pixels) {
+  std::string error = checkImage(image, side, max_pixels);
+  if (!error.empty()) return error;
+  const std::string s = std::string(side) + " camera_info";
+  for (int i = 0; i < 9; ++i) {
+    if (!std::isfinite(info.K[i]) || !std::isfinite(info.R[i])) {
+      return s + " K or R has a non-finite entry: the calibration is invalid";
+    }
+  }
+  for (const double d : info.D) {
+    if (!std::isfinite(d)) return s + " D has a non-finite entry: the calibration is invalid";
+  }
+  if (!(info.K[0] > 0.0) || !(info.K[4] > 0.0)) {
+    return s + " K[0] (fx) = " + num(info.K[0]) + ", K[4] (fy) = " + num(info.K[4]) +
+           ": the camera is not calibrated (image_proc/rectify needs K, D, R and P)";
+  }
+  if (info.width == 0 || info.height == 0) {
+    return s + " gives no image size (width, height): image_proc/rectify needs it";
+  }
+  // R must rotate: R R^T = I (calibrators write about 9 digits).
+  for (int row = 0; row < 3; ++row) {
+    for (int col = 0; col < 3; ++col) {
+      double dot = 0.0;
+      for (int k = 0; k < 3; ++k) dot += info.R[3 * row + k] * info.R[3 * col + k];
+      if (std::abs(dot - (row == col ? 1.0 : 0.0)) > 1e-3) {
+        return s + " R is not a rotation (an all-zero R means uncalibrated): the calibration is invalid";
+      }
+    }
+  }
+  image_geometry::PinholeCameraModel model;
+  try {
+    model.fromCameraInfo(info);
+  } catch (const std::exception& e) {
+    return s + " rejected by image_geometry: " + e.what();
+  }
+  const cv::Size size = model.reducedResolution();
+  if (size.width != static_cast<int>(image.width) || size.height != static_cast<int>(image.height)) {
+    return s + " is for " + std::to_string(size.width) + "x" + std::to_string(size.height) +
+           " (after binning/ROI) but the raw image is " + std::to_string(image.width) + "x" +
+           std::to_string(image.height) + ": does the camera_info belong to this camera?";
+  }
+  const bool distorted = std::any_of(info.D.begin(), info.D.end(), [](double d) { return d != 0.0; });
+  if (!distorted) {
+    for (int i = 0; i < 9; ++i) {
+      if (std::abs(info.R[i] - (i % 4 == 0 ? 1.0 : 0.0)) > 1e-9) {
+        return s + " has no distortion (D all zero) but R is not the identity: image_proc/rectify passes such "
+                   "an image on unrotated, so the pair would not be rectified";
+      }
+    }
+    return "";
+  }
+  if (!isRectifiableDistortionModel(info.distortion_model)) {
+    return s + " has distortion model '" + info.distortion_model +
+           "': image_proc/rectify (image_geometry) undistorts plumb_bob, rational_polynomial and equidistant";
+  }
+  const std::size_t n = info.D.size();
+  const bool count_ok = info.distortion_model == sensor_msgs::distortion_models::EQUIDISTANT
+                            ? n == 4
+                            : n == 4 || n == 5 || n == 8 || n == 12 || n == 14;
+  if (!count_ok) {
+    return s + " has " + std::to_string(n) + " distortion coefficients for model '" + info.distortion_model +
+           "' (" +
+           (info.distortion_model == sensor_msgs::distortion_models::EQUIDISTANT ? "4" : "5, or 4, 8, 12, 14") +
+           " expected)";
   }
   return "";
 }

@@ -11,6 +11,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <opencv2/core.hpp>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <stereo_msgs/DisparityImage.h>
@@ -33,6 +34,47 @@ std::string checkImage(const sensor_msgs::Image& image, const char* side, std::s
 
 /// Checks that the two images can be matched as a pair (equal sizes).
 std::string checkImagePair(const sensor_msgs::Image& left, const sensor_msgs::Image& right);
+
+/// What a compressed image's own header says, read without decoding it.
+struct CompressedImageHeader {
+  enum class Format { Jpeg, Png };
+  Format format = Format::Jpeg;
+  int width = 0, height = 0;
+  int channels = 0;   ///< decoded as 1 (grey; a PNG's alpha dropped) or 3 (colour; a palette expanded)
+  int bit_depth = 0;  ///< bits per sample: a JPEG's precision, a PNG's bit depth
+};
+
+/// Reads a JPEG's frame header (SOF) or a PNG's IHDR from `data`, and checks
+/// that the data is complete: a JPEG's end-of-image marker after its scan, a
+/// PNG's IEND chunk. (libjpeg decodes a truncated JPEG with a grey bottom and
+/// a mere warning.) Returns "" or what is wrong.
+std::string readCompressedImageHeader(const uint8_t* data, std::size_t size, CompressedImageHeader& header);
+
+/// Decodes a sensor_msgs/CompressedImage (JPEG or PNG, 8 bits per sample,
+/// told apart by their first bytes, whatever `format` says) with OpenCV into
+/// `image`: mono8 for grey, bgr8 for colour, msg's header. The size is
+/// checked (at most `max_pixels`, at least bdis::kMinImageSide per side)
+/// before anything is allocated, and the pixels are decoded straight into
+/// `image.data`, which keeps its capacity from frame to frame. Returns "" or
+/// what is wrong, naming `side` ("left", "right"): not JPEG or PNG,
+/// truncated, corrupt, 16-bit, too large; `image` is then unspecified.
+std::string decodeCompressedImage(const sensor_msgs::CompressedImage& msg, const char* side, std::size_t max_pixels,
+                                  sensor_msgs::Image& image);
+
+/// The distortion models image_geometry (and so image_proc/rectify) undistorts.
+bool isRectifiableDistortionModel(const std::string& model);
+
+/// Checks a raw image and its camera_info (the calibrator's: D, K, R, P) for
+/// what image_proc/rectify needs: checkImage, a calibrated camera_info (K
+/// and R finite, fx, fy > 0, R a rotation) of the image's size (after
+/// binning/ROI), and distortion coefficients of a model image_geometry knows,
+/// in a number OpenCV takes. image_proc/rectify itself throws out of its
+/// callback, ending the manager, for an unknown model or a wrong number of
+/// coefficients, and silently remaps an image of another size to the
+/// camera_info's. Also refused: no distortion with R not the identity, which
+/// image_proc/rectify passes on unrotated. `side` is "left" or "right".
+std::string checkRawFrame(const sensor_msgs::Image& image, const sensor_msgs::CameraInfo& info, const char* side,
+                          std::size_t max_pixels);
 
 /// Builds the rectified stereo model from the two camera_infos (image_geometry,
 /// so binning and ROI are applied) and checks it against the image size:

@@ -1,11 +1,16 @@
 // The nodelet's per-frame validation and message conversion, without a master.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <tuple>
+#include <vector>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <sensor_msgs/image_encodings.h>
 
 #include "../../src/ros_frame.hpp"
@@ -387,4 +392,213 @@ TEST(RosFrameTransform, InvalidRotationIsRefusedAndLeavesTheTransform) {
     EXPECT_EQ(t.t[0], 7.0);
     EXPECT_EQ(t.r[0], 1.0);
   }
+}
+
+// ---- compressed input (built-in decoding) -----------------------------------
+
+namespace {
+
+using bdis_stereo::CompressedImageHeader;
+using bdis_stereo::decodeCompressedImage;
+using bdis_stereo::readCompressedImageHeader;
+
+// A textured image: its JPEG has detail to lose.
+cv::Mat texture(int w, int h, int type) {
+  cv::Mat m(h, w, type);
+  cv::randu(m, 0, 256);
+  return m;
+}
+
+sensor_msgs::CompressedImage compressed(const cv::Mat& image, const std::string& ext, std::vector<int> params = {}) {
+  std::vector<uint8_t> data;
+  EXPECT_TRUE(cv::imencode(ext, image, data, params));
+  sensor_msgs::CompressedImage msg;
+  msg.header.frame_id = "left_optical";
+  msg.header.stamp = ros::Time(12, 34);
+  msg.format = "bgr8; " + std::string(ext == ".png" ? "png" : "jpeg") + " compressed bgr8";
+  msg.data = data;
+  return msg;
+}
+
+cv::Mat over(sensor_msgs::Image& image, int type) {
+  return cv::Mat(static_cast<int>(image.height), static_cast<int>(image.width), type, image.data.data(), image.step);
+}
+
+}  // namespace
+
+TEST(RosFrameDecode, PngIsLosslessAndJpegClose) {
+  const cv::Mat bgr = texture(64, 48, CV_8UC3), grey = texture(64, 48, CV_8UC1);
+  sensor_msgs::Image out;
+  ASSERT_EQ(decodeCompressedImage(compressed(bgr, ".png"), "left", 1 << 20, out), "");
+  EXPECT_EQ(out.encoding, "bgr8");
+  EXPECT_EQ(out.header.frame_id, "left_optical");
+  EXPECT_EQ(out.header.stamp, ros::Time(12, 34));
+  EXPECT_EQ(std::make_tuple(out.width, out.height, out.step), std::make_tuple(64u, 48u, 64u * 3));
+  EXPECT_EQ(cv::norm(over(out, CV_8UC3), bgr, cv::NORM_INF), 0.0);
+  EXPECT_EQ(checkImage(out, "left", 1 << 20), "");
+
+  ASSERT_EQ(decodeCompressedImage(compressed(grey, ".png"), "left", 1 << 20, out), "");
+  EXPECT_EQ(out.encoding, "mono8");
+  EXPECT_EQ(out.step, 64u);
+  EXPECT_EQ(cv::norm(over(out, CV_8UC1), grey, cv::NORM_INF), 0.0);
+
+  const cv::Mat smooth_bgr = [] {
+    cv::Mat m = texture(64, 48, CV_8UC3);
+    cv::GaussianBlur(m, m, cv::Size(0, 0), 2.0);
+    return m;
+  }();
+  ASSERT_EQ(decodeCompressedImage(compressed(smooth_bgr, ".jpg", {cv::IMWRITE_JPEG_QUALITY, 95}), "left", 1 << 20,
+                                  out),
+            "");
+  EXPECT_EQ(out.encoding, "bgr8");
+  EXPECT_LT(cv::norm(over(out, CV_8UC3), smooth_bgr, cv::NORM_L1) / smooth_bgr.total() / 3, 2.0);
+  ASSERT_EQ(decodeCompressedImage(compressed(grey, ".jpg"), "left", 1 << 20, out), "");
+  EXPECT_EQ(out.encoding, "mono8");
+}
+
+// The decoder's check that it wrote anything (a canary in the first bytes)
+// must not refuse an image that starts with the canary's values.
+TEST(RosFrameDecode, ImageStartingWithTheCanaryIsDecoded) {
+  cv::Mat grey = texture(64, 48, CV_8UC1);
+  const uint8_t canary[8] = {0x5A, 0xA5, 0x3C, 0xC3, 0x96, 0x69, 0x0F, 0xF0};
+  std::copy(canary, canary + 8, grey.ptr<uint8_t>(0));
+  sensor_msgs::Image out;
+  ASSERT_EQ(decodeCompressedImage(compressed(grey, ".png"), "left", 1 << 20, out), "");
+  EXPECT_EQ(cv::norm(over(out, CV_8UC1), grey, cv::NORM_INF), 0.0);
+}
+
+TEST(RosFrameDecode, DecodesIntoTheSameBufferFrameAfterFrame) {
+  sensor_msgs::Image out;
+  ASSERT_EQ(decodeCompressedImage(compressed(texture(64, 48, CV_8UC3), ".jpg"), "left", 1 << 20, out), "");
+  const uint8_t* buffer = out.data.data();
+  for (int i = 0; i < 3; ++i) {
+    const cv::Mat image = texture(64, 48, CV_8UC3);
+    ASSERT_EQ(decodeCompressedImage(compressed(image, ".png"), "left", 1 << 20, out), "");
+    EXPECT_EQ(out.data.data(), buffer) << "reallocated on frame " << i;
+    EXPECT_EQ(cv::norm(over(out, CV_8UC3), image, cv::NORM_INF), 0.0);
+  }
+}
+
+TEST(RosFrameDecode, ReadsTheHeaderWithoutDecoding) {
+  CompressedImageHeader h;
+  const sensor_msgs::CompressedImage jpeg = compressed(texture(64, 48, CV_8UC1), ".jpg");
+  ASSERT_EQ(readCompressedImageHeader(jpeg.data.data(), jpeg.data.size(), h), "");
+  EXPECT_EQ(h.format, CompressedImageHeader::Format::Jpeg);
+  EXPECT_EQ(std::make_tuple(h.width, h.height, h.channels, h.bit_depth), std::make_tuple(64, 48, 1, 8));
+  const sensor_msgs::CompressedImage rgba = compressed(texture(40, 36, CV_8UC4), ".png");
+  ASSERT_EQ(readCompressedImageHeader(rgba.data.data(), rgba.data.size(), h), "");
+  EXPECT_EQ(h.format, CompressedImageHeader::Format::Png);
+  EXPECT_EQ(std::make_tuple(h.width, h.height, h.channels, h.bit_depth), std::make_tuple(40, 36, 3, 8));
+  const sensor_msgs::CompressedImage deep = compressed(cv::Mat(36, 40, CV_16UC1, cv::Scalar(1000)), ".png");
+  ASSERT_EQ(readCompressedImageHeader(deep.data.data(), deep.data.size(), h), "");
+  EXPECT_EQ(std::make_tuple(h.channels, h.bit_depth), std::make_tuple(1, 16));
+}
+
+TEST(RosFrameDecode, BadDataIsRefusedWithTheReason) {
+  sensor_msgs::Image out;
+  auto error = [&out](const sensor_msgs::CompressedImage& msg, std::size_t max_pixels = 1 << 20) {
+    return decodeCompressedImage(msg, "right", max_pixels, out);
+  };
+  const sensor_msgs::CompressedImage jpeg = compressed(texture(64, 48, CV_8UC3), ".jpg");
+  const sensor_msgs::CompressedImage png = compressed(texture(64, 48, CV_8UC3), ".png");
+
+  sensor_msgs::CompressedImage truncated = jpeg;
+  truncated.data.resize(truncated.data.size() * 2 / 3);
+  EXPECT_TRUE(contains(error(truncated), "right compressed image (format 'bgr8; jpeg compressed bgr8') is a "
+                                         "truncated JPEG (no end-of-image marker)"))
+      << error(truncated);
+  truncated.data.resize(40);  // inside the header
+  EXPECT_TRUE(contains(error(truncated), "truncated JPEG")) << error(truncated);
+  sensor_msgs::CompressedImage corrupt = jpeg;
+  std::fill(corrupt.data.begin() + 2, corrupt.data.begin() + 200, 0x5A);  // markers overwritten
+  EXPECT_TRUE(contains(error(corrupt), "corrupt JPEG")) << error(corrupt);
+  corrupt = jpeg;  // the scan names a component the frame does not have: libjpeg gives up
+  const uint8_t sos[2] = {0xFF, 0xDA};
+  const auto scan = std::search(corrupt.data.begin(), corrupt.data.end(), sos, sos + 2);
+  ASSERT_NE(scan, corrupt.data.end());
+  *(scan + 5) = 0x77;  // FF DA, length (2), component count, first component's id
+  EXPECT_TRUE(contains(error(corrupt), "is a corrupt JPEG: OpenCV cannot decode it")) << error(corrupt);
+
+  sensor_msgs::CompressedImage png_truncated = png;
+  png_truncated.data.resize(png_truncated.data.size() - 20);
+  EXPECT_TRUE(contains(error(png_truncated), "truncated PNG (no IEND chunk)")) << error(png_truncated);
+  EXPECT_TRUE(contains(error(compressed(cv::Mat(48, 64, CV_16UC1, cv::Scalar(1000)), ".png")),
+                       "is a 16-bit PNG: supported are 8-bit JPEG and PNG"));
+  sensor_msgs::CompressedImage text = jpeg;
+  text.data.assign({'h', 'e', 'l', 'l', 'o'});
+  EXPECT_TRUE(contains(error(text), "is neither a JPEG nor a PNG")) << error(text);
+  text.data.clear();
+  EXPECT_TRUE(contains(error(text), "is empty")) << error(text);
+
+  // The size is refused from the header, before anything is allocated.
+  sensor_msgs::Image untouched;
+  EXPECT_TRUE(contains(decodeCompressedImage(png, "left", 1000, untouched),
+                       "left image is 64x48, more than max_image_pixels = 1000"));
+  EXPECT_TRUE(untouched.data.empty());
+  sensor_msgs::CompressedImage huge = png;  // IHDR says 100000 x 100000
+  for (int offset : {16, 20}) {
+    const uint8_t big_endian_100000[4] = {0x00, 0x01, 0x86, 0xA0};
+    std::copy(big_endian_100000, big_endian_100000 + 4, huge.data.begin() + offset);
+  }
+  EXPECT_TRUE(contains(decodeCompressedImage(huge, "left", 1 << 24, untouched), "100000x100000, more than"));
+  EXPECT_TRUE(untouched.data.empty());
+  EXPECT_TRUE(contains(error(compressed(texture(16, 48, CV_8UC3), ".png")), "at least 32 px"));
+}
+
+// ---- raw frames for image_proc/rectify --------------------------------------
+
+TEST(RosFrameRawCheck, AcceptsWhatImageProcRectifies) {
+  const sensor_msgs::Image image = makeImage(64, 48, "bgr8", 3);
+  sensor_msgs::CameraInfo info = makeInfo(520, 32, 24, 0);
+  info.D = {-0.2, 0.05, 0, 0, 0};
+  EXPECT_EQ(bdis_stereo::checkRawFrame(image, info, "left", 1 << 20), "");
+  info.distortion_model = "rational_polynomial";
+  info.D = {-0.2, 0.05, 0, 0, 0, 0.01, 0, 0};
+  EXPECT_EQ(bdis_stereo::checkRawFrame(image, info, "left", 1 << 20), "");
+  info.distortion_model = "equidistant";
+  info.D = {0.05, 0.01, 0, 0};
+  EXPECT_EQ(bdis_stereo::checkRawFrame(image, info, "left", 1 << 20), "");
+  info.distortion_model = "";  // no distortion: passed on as it is, whatever the model
+  info.D.clear();
+  EXPECT_EQ(bdis_stereo::checkRawFrame(image, info, "left", 1 << 20), "");
+  info = makeInfo(520, 64, 48, 0, 128, 96);  // binned 2x2
+  info.binning_x = info.binning_y = 2;
+  info.D = {-0.2, 0.05, 0, 0, 0};
+  EXPECT_EQ(bdis_stereo::checkRawFrame(image, info, "left", 1 << 20), "");
+}
+
+TEST(RosFrameRawCheck, RefusesWhatWouldEndTheManagerOrGoWrong) {
+  const sensor_msgs::Image image = makeImage(64, 48, "bgr8", 3);
+  auto check = [&image](void (*edit)(sensor_msgs::CameraInfo&)) {
+    sensor_msgs::CameraInfo info = makeInfo(520, 32, 24, 0);
+    info.D = {-0.2, 0.05, 0, 0, 0};
+    edit(info);
+    return bdis_stereo::checkRawFrame(image, info, "right", 1 << 20);
+  };
+  std::string err = check([](sensor_msgs::CameraInfo& i) { i.distortion_model = "fisheye_v2"; });
+  EXPECT_TRUE(contains(err, "right camera_info has distortion model 'fisheye_v2': image_proc/rectify "
+                            "(image_geometry) undistorts plumb_bob, rational_polynomial and equidistant"))
+      << err;
+  err = check([](sensor_msgs::CameraInfo& i) { i.D.resize(3); });
+  EXPECT_TRUE(contains(err, "has 3 distortion coefficients for model 'plumb_bob'")) << err;
+  err = check([](sensor_msgs::CameraInfo& i) { i.distortion_model = "equidistant"; });
+  EXPECT_TRUE(contains(err, "has 5 distortion coefficients for model 'equidistant' (4 expected)")) << err;
+  err = check([](sensor_msgs::CameraInfo& i) { i.width = 128; });
+  EXPECT_TRUE(contains(err, "right camera_info is for 128x48 (after binning/ROI) but the raw image is 64x48")) << err;
+  err = check([](sensor_msgs::CameraInfo& i) { i.width = i.height = 0; });
+  EXPECT_TRUE(contains(err, "gives no image size")) << err;
+  err = check([](sensor_msgs::CameraInfo& i) { i.K.fill(0.0); });
+  EXPECT_TRUE(contains(err, "the camera is not calibrated")) << err;
+  err = check([](sensor_msgs::CameraInfo& i) { i.R.fill(0.0); });
+  EXPECT_TRUE(contains(err, "R is not a rotation")) << err;
+  err = check([](sensor_msgs::CameraInfo& i) { i.D[1] = std::numeric_limits<double>::quiet_NaN(); });
+  EXPECT_TRUE(contains(err, "D has a non-finite entry")) << err;
+  err = check([](sensor_msgs::CameraInfo& i) {
+    i.D.assign(5, 0.0);  // no distortion but a rectifying rotation (about y)
+    i.R = {0.8, 0, 0.6, 0, 1, 0, -0.6, 0, 0.8};
+  });
+  EXPECT_TRUE(contains(err, "no distortion (D all zero) but R is not the identity")) << err;
+  sensor_msgs::CameraInfo info = makeInfo(520, 32, 24, 0);
+  EXPECT_TRUE(contains(bdis_stereo::checkRawFrame(makeImage(64, 48, "bayer_rggb8", 1), info, "left", 1 << 20),
+                       "left image has encoding 'bayer_rggb8'"));
 }
