@@ -73,6 +73,7 @@ class FramePipeline {
   // Reused from frame to frame (no allocation once the size is known).
   cv::Mat left_buffer_, right_buffer_, grey_buffer_;
   cv::Mat depth_buffer_;  ///< depth for points2 while depth/image_rect has no subscriber
+  cv::Mat cloud_disparity_, cloud_colour_;  ///< subsampled for points2 (cloud_stride > 1)
   ros::Time last_stamp_;
   ros::WallTime last_sign_check_;
   bool looks_swapped_ = false;
