@@ -107,7 +107,7 @@ bool paramsValid(const bdis::MatcherParams& p) {
 void capIterations(bdis::MatcherParams& p, cv::Size size) {
   if (!paramsValid(p)) return;
   const int stride = std::max(1, static_cast<int>(std::lround(p.patch_size * (1.0 - p.overlap))));
-  const int finest = std::clamp(p.finest_level, 0, 10);
+  const int finest = std::clamp(p.finestLevelFor(size.width), 0, 10);
   // Patches of the finest level, plus a third for the coarser ones.
   const double patches = 4.0 / 3.0 * (1.0 + (size.width >> finest) / stride) *
                          (1.0 + (size.height >> finest) / stride);

@@ -4,25 +4,45 @@
 # one core; disparity, depth and points2 subscribed) and, in the same run, into
 # stereo_image_proc (disparity + point_cloud2 nodelets, StereoBM and
 # StereoSGBM) as the ROS reference. Prints one table; latency = arrival of a
-# frame's last output at the bench minus its stamp.
-#   scripts/bench_node.sh [--rate HZ] [--seconds S] [--json FILE]
+# frame's last output at the bench minus its stamp. --size WxH replays the
+# same scene rendered at that size instead (bdis_synth, 8 frames), e.g.
+# --size 1920x1080 --rate 30 for an HD endoscope.
+#   scripts/bench_node.sh [--rate HZ] [--seconds S] [--size WxH] [--json FILE]
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
-RATE=60 SECONDS_MEASURED=20 JSON=""
+RATE=60 SECONDS_MEASURED=20 JSON="" SIZE=""
+usage="usage: $0 [--rate HZ] [--seconds S] [--size WxH] [--json FILE]"
 while [ $# -gt 0 ]; do
   case "$1" in
     --rate) RATE="$2"; shift 2 ;;
     --seconds) SECONDS_MEASURED="$2"; shift 2 ;;
     --json) JSON="$2"; shift 2 ;;
-    *) echo "usage: $0 [--rate HZ] [--seconds S] [--json FILE]" >&2; exit 2 ;;
+    --size) SIZE="$2"; shift 2 ;;
+    *) echo "$usage" >&2; exit 2 ;;
   esac
 done
+if [ -n "$SIZE" ] && ! [[ "$SIZE" =~ ^[1-9][0-9]*x[1-9][0-9]*$ ]]; then
+  echo "--size needs WIDTHxHEIGHT, got '$SIZE'" >&2
+  echo "$usage" >&2
+  exit 2
+fi
 
 prepare_ros_run
 
 work="$(mktemp -d /tmp/bdis_bench_node.XXXXXX)"
 trap 'rm -rf "$work"' EXIT
 sample="$(bdis_common sample-dir)"
+width=640 height=480
+if [ -n "$SIZE" ]; then
+  width="${SIZE%x*}" height="${SIZE#*x}"
+  log "rendering the sample scene at ${width}x${height} (8 frames)"
+  rosrun bdis_stereo bdis_synth --out "$work/scene" --width "$width" --height "$height" \
+      --frames 8 --supersampling 1 --quiet
+  sample="$work/scene"
+fi
+# stereo_image_proc searches a fixed range: the sample's disparities reach
+# 80 px at 640 px wide, so 128 px scaled with the width (a multiple of 16).
+disparity_range=$(( (128 * width / 640 + 15) / 16 * 16 ))
 # One frame_id for both cameras: stereo_image_proc aborts on differing ones
 # (image_geometry asserts), bdis_stereo accepts either.
 rosrun bdis_stereo bdis_make_bag "$sample" "$work/sample.bag" --rate 30 --right-frame stereo_left_optical >/dev/null
@@ -31,7 +51,7 @@ json="${JSON:-$work/results.jsonl}"
 
 cores="$(nproc)"
 node_core=$((cores > 1 ? 1 : 0))
-printf '%-34s %9s %6s %6s %7s %11s %7s %7s %7s %7s\n' "system (640x480, node on 1 core)" "rate" "sent" "out" "out %" "out rate" "p50 ms" "p95 ms" "p99 ms" "max ms"
+printf '%-34s %9s %6s %6s %7s %11s %7s %7s %7s %7s\n' "system (${width}x${height}, node on 1 core)" "rate" "sent" "out" "out %" "out rate" "p50 ms" "p95 ms" "p99 ms" "max ms"
 run_one() {  # label, launch args...
   local label="$1"; shift
   local port attempt
@@ -50,5 +70,5 @@ run_one() {  # label, launch args...
 }
 run_one bdis_balanced system:=bdis preset:=balanced
 run_one bdis_fast system:=bdis preset:=fast
-run_one stereo_image_proc_bm system:=stereo_image_proc algorithm:=0
-run_one stereo_image_proc_sgbm system:=stereo_image_proc algorithm:=1
+run_one stereo_image_proc_bm system:=stereo_image_proc algorithm:=0 disparity_range:="$disparity_range"
+run_one stereo_image_proc_sgbm system:=stereo_image_proc algorithm:=1 disparity_range:="$disparity_range"

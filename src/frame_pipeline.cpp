@@ -144,11 +144,26 @@ void FramePipeline::publishPoints(const std_msgs::Header& header, cv::Mat depth,
                                   const bdis::StereoCamera& camera, const cv::Mat& left_colour) {
   RigidTransform transform;
   const bool transformed = cloudTransform(header, transform);
-  if (depth.empty()) {
+  const int stride = params_.cloudStrideFor(result_.disparity.cols);
+  cv::Mat colour = left_colour;
+  if (stride > 1) {
+    // Depth at the kept pixels only; the published depth image's when there is one.
+    if (depth.empty()) {
+      bdis::subsample(result_.disparity, stride, cloud_disparity_);
+      bdis::disparityToDepth(cloud_disparity_, camera, depth_buffer_);
+    } else {
+      bdis::subsample(depth, stride, depth_buffer_);
+    }
+    depth = depth_buffer_;
+    if (!colour.empty()) {
+      bdis::subsample(left_colour, stride, cloud_colour_);
+      colour = cloud_colour_;
+    }
+  } else if (depth.empty()) {
     bdis::disparityToDepth(result_.disparity, camera, depth_buffer_);
     depth = depth_buffer_;
   }
-  outputs_.publishPoints(header, depth, camera, left_colour, params_.organized_cloud,
+  outputs_.publishPoints(header, depth, camera.subsampled(stride), colour, params_.organized_cloud,
                          transformed ? &transform : nullptr, params_.target_frame);
 }
 

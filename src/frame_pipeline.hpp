@@ -77,6 +77,7 @@ class FramePipeline {
   cv::Mat left_buffer_, right_buffer_, grey_buffer_;
   cv::Mat depth_buffer_;  ///< depth for points2 while depth/image_rect has no subscriber
   sensor_msgs::Image decoded_left_, decoded_right_;  ///< built-in decoding of compressed frames
+  cv::Mat cloud_disparity_, cloud_colour_;  ///< subsampled for points2 (cloud_stride > 1)
   ros::Time last_stamp_;
   ros::WallTime last_sign_check_;
   bool looks_swapped_ = false;

@@ -26,11 +26,17 @@ struct NodeParams {
   std::string image_transport = "raw";
   bool rectify = false;
   bool organized_cloud = true;
+  int cloud_stride = 0;
   std::string target_frame;
   double tf_timeout = 0.01;
   int max_image_pixels = static_cast<int>(kDefaultMaxImagePixels);
   double sync_warn_timeout = 3.0;
   double diagnostic_period = 1.0;
+
+  /// points2's stride for frames `width` px wide: cloud_stride when set,
+  /// else round(width / 640), at least 1: an HD frame's cloud stays about
+  /// 640 points wide (its disparity is searched at a level as coarse).
+  int cloudStrideFor(int width) const;
 };
 
 /// One node parameter: what it accepts (name, type, range, description) and

@@ -13,7 +13,9 @@
 //       sequence, the median over all frames (each timed N times, methods
 //       interleaved frame by frame) of the thread CPU time of one compute, for
 //       bdis fast / balanced / accurate and DIS fast, and the ratio to DIS
-//       fast; then the same for balanced and DIS fast on generated scenes of
+//       fast; then the same for balanced (searched down to level 1, which
+//       gives the kernels' scaling exponent, and with the finest level as
+//       set, by default from the width) and DIS fast on generated scenes of
 //       each size, the sizes taking turns round by round (6N rounds), once
 //       back to back and once with the caches emptied before each frame. Thread
 //       CPU time, not wall time: on a shared machine it does not count the
@@ -182,7 +184,21 @@ void sizeCounters(benchmark::State& state, int width, int height) {
       benchmark::Counter(mpix, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
+/// Balanced searched down to level 1 at every size: how the kernels scale.
+bdis::MatcherParams levelOne(bdis::MatcherParams p) {
+  p.finest_level = 1;
+  return p;
+}
+
 void BM_ScalingBdis(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const int w = static_cast<int>(state.range(0)), h = static_cast<int>(state.range(1));
+  timeLoop(state, bdisMethod("balanced", levelOne(bdis::MatcherParams{})), scaledFrames(w, h));
+  sizeCounters(state, w, h);
+}
+
+/// Balanced as it runs by default: the finest level from the width.
+void BM_ScalingBdisDefaultLevels(benchmark::State& state) {
   cv::setNumThreads(1);
   const int w = static_cast<int>(state.range(0)), h = static_cast<int>(state.range(1));
   timeLoop(state, bdisMethod("balanced", bdis::MatcherParams{}), scaledFrames(w, h));
@@ -206,6 +222,7 @@ void scalingSizes(benchmark::internal::Benchmark* b) {
 
 BENCHMARK(BM_ScalingOpenCvDisFast)->Apply(scalingSizes);
 BENCHMARK(BM_ScalingBdis)->Apply(scalingSizes);
+BENCHMARK(BM_ScalingBdisDefaultLevels)->Apply(scalingSizes);
 
 // ---- --table: one table of medians of thread CPU time -------------------------
 
@@ -411,9 +428,13 @@ int runTable(int rounds, bool sequences, bool scaling, const bdis::MatcherParams
     // before each frame (every frame starts from memory, as in a node).
     CacheEvictor evictor;
     for (const bool evicted : {false, true}) {
-      std::vector<std::vector<Method>> methods;  // per size: balanced, DIS fast
+      // Per size: balanced searched down to level 1 (how the kernels scale:
+      // the exponent), balanced with its finest level (the default: from
+      // the width), DIS fast.
+      std::vector<std::vector<Method>> methods;
       for (size_t i = 0; i < std::size(kScalingSizes); ++i) {
-        methods.push_back({bdisMethod(balanced_name, balanced), disFastMethod()});
+        methods.push_back({bdisMethod(balanced_name + ", finest level 1", levelOne(balanced)),
+                           bdisMethod(balanced_name + ", finest level as set", balanced), disFastMethod()});
       }
       // 30 rounds at the default 5: about 30 s in all (twice that with eviction).
       const ScalingTimes t = scalingMedianTimes(methods, 6 * rounds, evicted ? &evictor : nullptr);
@@ -426,7 +447,8 @@ int runTable(int rounds, bool sequences, bool scaling, const bdis::MatcherParams
         const auto [w, h] = kScalingSizes[i];
         printRows(what, cv::Size(w, h), scaledFrames(w, h).size(), t.rounds[i], methods[i], t.ms[i]);
         log_pixels.push_back(std::log(static_cast<double>(w) * h));
-        for (size_t m = 0; m < 2; ++m) log_ms[m].push_back(std::log(t.ms[i][m]));
+        log_ms[0].push_back(std::log(t.ms[i].front()));
+        log_ms[1].push_back(std::log(t.ms[i].back()));
       }
       // Time ~ pixels^e: e = 1 is linear; above 1 the time grows faster than the pixel count.
       const double e_bdis = slope(log_pixels, log_ms[0]), e_dis = slope(log_pixels, log_ms[1]);
@@ -435,7 +457,7 @@ int runTable(int rounds, bool sequences, bool scaling, const bdis::MatcherParams
       for (const auto& share : t.share_ms) {
         for (size_t m = 0; m < 2; ++m) {
           std::vector<double> log_share;
-          for (const auto& per_size : share) log_share.push_back(std::log(per_size[m]));
+          for (const auto& per_size : share) log_share.push_back(std::log(m == 0 ? per_size.front() : per_size.back()));
           const double e = slope(log_pixels, log_share);
           share_min[m] = std::min(share_min[m], e);
           share_max[m] = std::max(share_max[m], e);
@@ -446,7 +468,8 @@ int runTable(int rounds, bool sequences, bool scaling, const bdis::MatcherParams
         std::printf("| scaling exponent e, time ~ pixels^e (least squares over the sizes above%s; "
                     "in brackets e of each fifth of the rounds) | %s | 320x240 .. 1920x1080 | | "
                     "e = %.3f (%.3f-%.3f) | | %.2f |\n",
-                    evicted ? ", caches emptied" : "", m == 0 ? balanced_name.c_str() : "DIS fast",
+                    evicted ? ", caches emptied" : "",
+                    m == 0 ? (balanced_name + ", finest level 1").c_str() : "DIS fast",
                     e, share_min[m], share_max[m], e / e_dis);
       }
       std::fflush(stdout);

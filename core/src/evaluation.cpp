@@ -38,7 +38,8 @@ double DisparityScore::medianError() const {
   return 0.5 * (static_cast<double>(lower) + upper);
 }
 
-DisparityScore scoreDisparity(const cv::Mat& disparity, const cv::Mat& gt, const cv::Mat& left) {
+DisparityScore scoreDisparity(const cv::Mat& disparity, const cv::Mat& gt, const cv::Mat& left,
+                              double error_scale) {
   if (disparity.type() != CV_32FC1 || gt.type() != CV_32FC1 || disparity.size() != gt.size() ||
       left.size() != gt.size() || left.depth() != CV_8U) {
     throw std::invalid_argument("scoreDisparity: disparity and ground truth must be CV_32FC1 and "
@@ -56,7 +57,7 @@ DisparityScore scoreDisparity(const cv::Mat& disparity, const cv::Mat& gt, const
       if (!(g[x] > 0.f) || black) continue;
       s.scorable += 1;
       if (!(d[x] >= 0.f)) continue;  // no estimate (negative or NaN)
-      const float e = std::fabs(d[x] - g[x]);
+      const float e = static_cast<float>(error_scale * std::fabs(d[x] - g[x]));
       s.estimated += 1;
       s.abs_error_sum += e;
       s.abs_errors.push_back(e);

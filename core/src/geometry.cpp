@@ -70,6 +70,37 @@ float StereoCamera::depth(float disparity) const {
   return static_cast<float>(fx * baseline / shifted);
 }
 
+StereoCamera StereoCamera::subsampled(int stride) const {
+  if (stride < 1) throw std::invalid_argument("stride must be >= 1, got " + std::to_string(stride));
+  const double s = stride;
+  StereoCamera c = *this;
+  c.fx /= s;
+  c.fy /= s;
+  c.cx /= s;
+  c.cy /= s;
+  c.cx_right /= s;
+  return c;
+}
+
+void subsample(const cv::Mat& image, int stride, cv::Mat& out) {
+  if (stride < 1) throw std::invalid_argument("stride must be >= 1, got " + std::to_string(stride));
+  if (stride == 1) {
+    if (out.data != image.data) image.copyTo(out);
+    return;
+  }
+  // A header of its own keeps the source alive where `out` is `image`: a
+  // larger stride gives another size, which create() allocates anew.
+  const cv::Mat source = image;
+  out.create((source.rows + stride - 1) / stride, (source.cols + stride - 1) / stride, source.type());
+  const std::size_t bytes = source.elemSize();
+  const std::size_t step = bytes * static_cast<std::size_t>(stride);
+  for (int y = 0; y < out.rows; ++y) {
+    const uint8_t* from = source.ptr<uint8_t>(y * stride);
+    uint8_t* to = out.ptr<uint8_t>(y);
+    for (int x = 0; x < out.cols; ++x, from += step, to += bytes) std::memcpy(to, from, bytes);
+  }
+}
+
 void disparityToDepth(const cv::Mat& disparity, const StereoCamera& camera, cv::Mat& depth) {
   requireDisparity(disparity);
   camera.validate();

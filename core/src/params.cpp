@@ -2,6 +2,7 @@
 
 #include <cctype>
 #include <cerrno>
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -58,8 +59,9 @@ const std::vector<ParamField>& paramFields() {
   static const std::vector<ParamField> fields = {
       field("coarsest_level", &MatcherParams::coarsest_level, 0, 10,
             "coarsest pyramid level s_first (image / 2^s); reduced for small images"),
-      field("finest_level", &MatcherParams::finest_level, 0, 10,
-            "finest searched level s_last; the result is upsampled to full size"),
+      field("finest_level", &MatcherParams::finest_level, -1, 10,
+            "finest searched level s_last, the result upsampled to full size; -1 = from the image "
+            "width: 1 up to 904 px, 2 up to 1809, 3 above"),
       field("iterations", &MatcherParams::iterations, 1, 200,
             "Gauss-Newton steps per patch at most (fewer once a step is below 0.01 px)"),
       field("patch_size", &MatcherParams::patch_size, 4, 32, "patch side p, px at each level"),
@@ -117,7 +119,7 @@ void MatcherParams::validate() const {
       throw std::invalid_argument(os.str());
     }
   }
-  if (finest_level > coarsest_level) {
+  if (finest_level >= 0 && finest_level > coarsest_level) {
     throw std::invalid_argument("parameter finest_level = " + std::to_string(finest_level) +
                                 " is coarser than coarsest_level = " +
                                 std::to_string(coarsest_level) +
@@ -149,6 +151,17 @@ std::string presetList() {
 }
 
 }  // namespace
+
+int MatcherParams::finestLevelFor(int width) const {
+  const int level = finest_level >= 0
+                        ? finest_level
+                        : std::max(1, static_cast<int>(std::lround(std::log2(std::max(1, width) / 320.0))));
+  return std::min(level, coarsest_level);
+}
+
+float MatcherParams::checkToleranceFor(int width) const {
+  return finest_level < 0 && finestLevelFor(width) > 1 ? 2.f * lr_check_tolerance : lr_check_tolerance;
+}
 
 std::vector<std::string> MatcherParams::presetNames() {
   std::vector<std::string> names;

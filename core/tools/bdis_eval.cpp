@@ -50,6 +50,8 @@ options:
   --set NAME=VALUE     override one matcher parameter (repeatable)
   --methods LIST       comma-separated subset of bdis,dis_fast,dis_medium,sgbm (default: all)
   --frames N           use at most N (>= 1) frames per sequence
+  --reference-width W  count errors in pixels of a W px wide frame (error x W / width), so
+                       that frame sizes compare; the summary table only
   --json FILE          also write the results as JSON
   --dump-dir DIR       write every disparity as DIR/<sequence>/<method>/<frame>.png (16-bit, d*256)
   --predictions DIR    score disparities computed elsewhere (DIR/<frame>.png, 16-bit, d*256,
@@ -174,6 +176,7 @@ struct Options {
   std::vector<std::string> overrides;
   std::vector<std::string> method_names = {"bdis", "dis_fast", "dis_medium", "sgbm"};
   size_t max_frames = 0;  ///< 0: every frame
+  int reference_width = 0;  ///< 0: errors in the frame's own pixels
   bool help = false;
 };
 
@@ -199,6 +202,10 @@ Options parseOptions(int argc, char** argv) {
       const long long n = parseInteger("--frames", value());
       if (n < 1) throw UsageError("--frames needs a whole number >= 1, got " + std::to_string(n));
       o.max_frames = static_cast<size_t>(n);
+    } else if (a == "--reference-width") {
+      const long long w = parseInteger("--reference-width", value());
+      if (w < 1) throw UsageError("--reference-width needs a width >= 1");
+      o.reference_width = static_cast<int>(w);
     } else if (a == "--dump-dir") {
       o.dump_dir = value();
     } else if (a == "--predictions") {
@@ -265,7 +272,8 @@ std::vector<Row> scoreSequence(const std::string& root, std::vector<Method>& met
       row.has_confidence = !confidence.empty();
       row.has_variance = !variance.empty();
       if (seq.has_ground_truth) {
-        row.score.add(scoreDisparity(disparity, gt, left));
+        const double scale = o.reference_width > 0 ? static_cast<double>(o.reference_width) / left.cols : 1.0;
+        row.score.add(scoreDisparity(disparity, gt, left, scale));
         row.regions.add(scoreRegions(disparity, gt, labels));
         row.samples.add(disparity, gt, labels, confidence, variance);
       } else {

@@ -71,14 +71,29 @@ TEST(NodeParams, TableDescribesEveryParameterOnceWithItsDefault) {
     EXPECT_NO_THROW(p.bind(params, p.get(defaults), "test"));
   }
   for (const char* name :
-       {"preset", "approximate_sync", "queue_size", "image_transport", "organized_cloud", "target_frame",
-        "tf_timeout", "max_image_pixels", "sync_warn_timeout", "diagnostic_period"}) {
+       {"preset", "approximate_sync", "queue_size", "image_transport", "organized_cloud", "cloud_stride",
+        "target_frame", "tf_timeout", "max_image_pixels", "sync_warn_timeout", "diagnostic_period"}) {
     EXPECT_EQ(names.count(name), 1u) << name;
   }
   EXPECT_EQ(nodeParam("queue_size").get(defaults).integer, 5);
   EXPECT_EQ(nodeParam("max_image_pixels").get(defaults).integer,
             static_cast<long long>(bdis_stereo::kDefaultMaxImagePixels));
   EXPECT_EQ(nodeParam("preset").get(defaults).text, "balanced");
+}
+
+TEST(NodeParams, CloudStrideFollowsTheWidthUnlessSet) {
+  NodeParams p;  // cloud_stride 0
+  EXPECT_EQ(p.cloudStrideFor(320), 1);
+  EXPECT_EQ(p.cloudStrideFor(640), 1);
+  EXPECT_EQ(p.cloudStrideFor(959), 1);
+  EXPECT_EQ(p.cloudStrideFor(960), 2);
+  EXPECT_EQ(p.cloudStrideFor(1280), 2);
+  EXPECT_EQ(p.cloudStrideFor(1920), 3);
+  EXPECT_EQ(p.cloudStrideFor(3840), 6);
+  p.cloud_stride = 1;  // set: honoured at any width
+  EXPECT_EQ(p.cloudStrideFor(1920), 1);
+  p.cloud_stride = 4;
+  EXPECT_EQ(p.cloudStrideFor(640), 4);
 }
 
 TEST(NodeParams, NothingSetGivesTheDefaultsAndTheBalancedPreset) {

@@ -145,7 +145,7 @@ TEST(MatcherReconfigure, RefusedValuesKeepThePreviousParameters) {
   config.finest_level = 3;
   reconfigure.reconfigure(config);
   EXPECT_EQ(config.coarsest_level, 5);
-  EXPECT_EQ(config.finest_level, 1);
+  EXPECT_EQ(config.finest_level, -1);
   EXPECT_FALSE(reconfigure.takeChange(taken));
   EXPECT_THROW(
       {

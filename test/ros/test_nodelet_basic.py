@@ -291,7 +291,7 @@ class TestNodeletBasic(unittest.TestCase):
                             "sigma_r = 255 left the density unchanged")
             # Invalid combination: rejected, previous values kept.
             cfg = client.update_configuration({"coarsest_level": 1, "finest_level": 3})
-            self.assertEqual((cfg["coarsest_level"], cfg["finest_level"]), (5, 1))
+            self.assertEqual((cfg["coarsest_level"], cfg["finest_level"]), (5, -1))
             self.rosout.wait_text("dynamic_reconfigure: rejected")
             # A preset sets every field.
             cfg = client.update_configuration({"preset": "fast"})

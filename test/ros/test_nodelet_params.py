@@ -147,7 +147,7 @@ class TestNodeletParams(unittest.TestCase):
             self.rosout.wait_text("dynamic_reconfigure: sigma_s = 100, the upper end")
             # Each valid, together not: rejected, previous values kept.
             cfg = client.update_configuration({"coarsest_level": 1, "finest_level": 3})
-            self.assertEqual((cfg["coarsest_level"], cfg["finest_level"]), (5, 1))
+            self.assertEqual((cfg["coarsest_level"], cfg["finest_level"]), (5, -1))
             # An unknown preset: kept.
             cfg = client.update_configuration({"preset": "turbo"})
             self.assertEqual(cfg["preset"], "balanced")

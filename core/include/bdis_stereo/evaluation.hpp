@@ -28,8 +28,11 @@ struct DisparityScore {
 };
 
 /// Scores `disparity` (CV_32FC1, negative = no estimate) against `gt`
-/// (CV_32FC1, 0 = unknown), masking pixels that are black in `left`.
-DisparityScore scoreDisparity(const cv::Mat& disparity, const cv::Mat& gt, const cv::Mat& left);
+/// (CV_32FC1, 0 = unknown), masking pixels that are black in `left`. Errors
+/// are multiplied by `error_scale` first: 640 / width counts them in pixels
+/// of a 640 px wide frame, to compare frame sizes.
+DisparityScore scoreDisparity(const cv::Mat& disparity, const cv::Mat& gt, const cv::Mat& left,
+                              double error_scale = 1.0);
 
 /// KITTI convention: 16-bit PNG, value = round(d * 256), 0 = no estimate.
 /// Reads into CV_32FC1 with kNoDisparity (-1) for 0. Throws std::runtime_error.

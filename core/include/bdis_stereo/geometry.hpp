@@ -28,7 +28,19 @@ struct StereoCamera {
 
   /// Depth of one disparity; NaN when d is not an estimate or lies at or beyond infinity.
   float depth(float disparity) const;
+
+  /// The camera of the image subsample() keeps with `stride` (>= 1): focal
+  /// lengths and principal points divided by stride, the same baseline; its
+  /// pixel (x, y) is pixel (stride x, stride y) here.
+  StereoCamera subsampled(int stride) const;
 };
+
+/// Every `stride`-th pixel of every `stride`-th row of `image`, starting at
+/// (0, 0): ceil(cols / stride) x ceil(rows / stride), of any type; `out` is
+/// reused when it has that size and type. A depth image keeps its values,
+/// so with camera.subsampled(stride) it gives the full image's points at the
+/// pixels kept. Throws std::invalid_argument for stride < 1.
+void subsample(const cv::Mat& image, int stride, cv::Mat& out);
 
 /// depth = fx * baseline / (d - (cx - cx_right)); CV_32FC1, NaN where unknown.
 /// `disparity` is CV_32FC1 with negative values (kNoDisparity) for no estimate.

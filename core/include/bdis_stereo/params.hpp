@@ -20,7 +20,11 @@ namespace bdis {
 struct MatcherParams {
   // Pyramid: level s is the input downsampled by 2^s.
   int coarsest_level = 5;   ///< s_first; reduced automatically for small images
-  int finest_level = 1;     ///< s_last; results are upsampled to full size
+  /// s_last; results are upsampled to full size. -1: from the image width
+  /// (finestLevelFor): the presets were tuned on 640 px wide frames searched
+  /// at level 1 (320 px), and a patch of patch_size px should see about as
+  /// much of the scene on an HD frame.
+  int finest_level = -1;
   // Patch search (inverse-compositional, 1-D).
   int iterations = 2;       ///< Gauss-Newton steps per patch at most (3 or 12 score the same)
   int patch_size = 8;       ///< side p of the square patches, px at each level
@@ -49,6 +53,16 @@ struct MatcherParams {
 
   /// Throws std::invalid_argument naming the first bad field and its range.
   void validate() const;
+
+  /// The finest searched level for frames `width` px wide: finest_level when
+  /// set, else round(log2(width / 320)), at least 1 (1 up to 904 px, 2 up to
+  /// 1809, 3 above); never coarser than coarsest_level.
+  int finestLevelFor(int width) const;
+  /// lr_check_tolerance in full-resolution px for frames `width` px wide:
+  /// as set, doubled where finest_level is -1 and the frame is searched at a
+  /// coarser level than 1, which would otherwise make the check stricter in
+  /// the scene the larger the frame.
+  float checkToleranceFor(int width) const;
 
   /// Named settings; throws std::invalid_argument for an unknown name.
   static MatcherParams preset(const std::string& name);

@@ -94,7 +94,7 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   const MatcherParams& P = m.params;
   // Levels that hold at least one patch; the finest level is clamped alike.
   const int levels = detail::levelsThatFit(left.cols, left.rows, P.patch_size, P.coarsest_level + 1);
-  const int finest = std::min(P.finest_level, levels - 1);
+  const int finest = std::min(P.finestLevelFor(left.cols), levels - 1);
   const bool with_check = P.lr_check_tolerance > 0.f;
 
   // 1. Pyramid: grey levels, gradients and validity of the pair.
@@ -116,7 +116,7 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   detail::LevelMaps& out = m.left.finest();
   if (with_check) {
     const float level_px = 1.f / static_cast<float>(1 << finest);
-    detail::leftRightCheck(m.check.finest().disparity, P.lr_check_tolerance * level_px,
+    detail::leftRightCheck(m.check.finest().disparity, P.checkToleranceFor(left.cols) * level_px,
                            detail::kLeftRightHalvingPx * level_px, out.disparity, out.confidence,
                            P.compute_variance ? &out.variance : nullptr);
   }

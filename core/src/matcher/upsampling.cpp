@@ -34,20 +34,64 @@ void interpolateColumns(int n, const int* x0, const int* x1, const float* ax, co
   for (int x = 0; x < n; ++x) dst[x] = (1.f - ax[x]) * src[x0[x]] + ax[x] * src[x1[x]];
 }
 
-/// The same for exactly twice the level width (finest level 1, the usual
-/// case), where the taps repeat: output columns 2i+1 and 2i+2 lie a quarter
-/// and three quarters of the way from level column i to i+1, and the two
-/// outermost columns copy the outermost level columns. Same arithmetic, so
-/// the same values, but a loop that vectorises.
-BDIS_ROW_LOOP
-void interpolateColumnsTwice(int level_width, const float* __restrict src, float* __restrict dst) {
-  dst[0] = src[0];
+/// The same for exactly k = 2^s times the level width (the usual case:
+/// k = 2 at 640 px, 8 at 1920 px with the default levels), where the taps
+/// repeat: the k output columns from k i + k/2 on lie (m + 0.5) / k of the
+/// way from level column i to i + 1 (m = 0..k-1), and the k/2 outermost
+/// columns on each side copy the outermost level columns. The weights are
+/// exact in float, so the values are those of interpolateColumns, from a
+/// loop that vectorises.
+template <int K>
+inline __attribute__((always_inline)) void interpolateColumnsBy(int level_width, const float* __restrict src,
+                                                                float* __restrict dst) {
+  constexpr int kHalf = K / 2;
+  for (int j = 0; j < kHalf; ++j) dst[j] = src[0];
   for (int i = 0; i + 1 < level_width; ++i) {
     const float a = src[i], b = src[i + 1];
-    dst[2 * i + 1] = 0.75f * a + 0.25f * b;
-    dst[2 * i + 2] = 0.25f * a + 0.75f * b;
+    float* __restrict out = dst + K * i + kHalf;
+    for (int m = 0; m < K; ++m) {
+      const float w = (static_cast<float>(m) + 0.5f) / static_cast<float>(K);
+      out[m] = (1.f - w) * a + w * b;
+    }
   }
-  dst[2 * level_width - 1] = src[level_width - 1];
+  for (int j = 0; j < kHalf; ++j) dst[K * level_width - kHalf + j] = src[level_width - 1];
+}
+
+// One function per factor, each cloned per ISA (BDIS_ROW_LOOP does not take templates).
+BDIS_ROW_LOOP
+void interpolateColumnsBy2(int level_width, const float* src, float* dst) {
+  interpolateColumnsBy<2>(level_width, src, dst);
+}
+BDIS_ROW_LOOP
+void interpolateColumnsBy4(int level_width, const float* src, float* dst) {
+  interpolateColumnsBy<4>(level_width, src, dst);
+}
+BDIS_ROW_LOOP
+void interpolateColumnsBy8(int level_width, const float* src, float* dst) {
+  interpolateColumnsBy<8>(level_width, src, dst);
+}
+BDIS_ROW_LOOP
+void interpolateColumnsBy16(int level_width, const float* src, float* dst) {
+  interpolateColumnsBy<16>(level_width, src, dst);
+}
+
+using ColumnInterpolation = void (*)(int level_width, const float* src, float* dst);
+
+/// The loop for exactly `factor` times the level width; null for another width.
+ColumnInterpolation integerColumnInterpolation(int factor, int out_width, int level_width) {
+  if (out_width != factor * level_width) return nullptr;
+  switch (factor) {
+    case 2:
+      return interpolateColumnsBy2;
+    case 4:
+      return interpolateColumnsBy4;
+    case 8:
+      return interpolateColumnsBy8;
+    case 16:
+      return interpolateColumnsBy16;
+    default:
+      return nullptr;
+  }
 }
 
 /// Final output row: weighted means where the input pixel is valid and the
@@ -101,7 +145,7 @@ void Upsampler::upsample(const LevelMaps& level, int s, const cv::Mat1b& full_va
   out.confidence.create(H, W, CV_32FC1);
   const float scale = static_cast<float>(1 << s);
   const float inv = 1.f / scale;
-  const bool twice = s == 1 && W == 2 * level_width;
+  const ColumnInterpolation by_factor = integerColumnInterpolation(1 << s, W, level_width);
   columnTaps(W, level_width, inv);
   for (std::vector<float>* v : {&weight_, &disparity_, &confidence_}) {
     v->resize(static_cast<size_t>(std::max(W, level_width)));
@@ -117,8 +161,8 @@ void Upsampler::upsample(const LevelMaps& level, int s, const cv::Mat1b& full_va
          {std::pair<float*, float*>{weight_.data(), row_weight_.data()},
           {disparity_.data(), row_disparity_.data()},
           {confidence_.data(), row_confidence_.data()}}) {
-      if (twice) {
-        interpolateColumnsTwice(level_width, level_row, out_row);
+      if (by_factor) {
+        by_factor(level_width, level_row, out_row);
       } else {
         interpolateColumns(W, x0_.data(), x1_.data(), ax_.data(), level_row, out_row);
       }

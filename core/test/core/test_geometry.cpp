@@ -324,6 +324,52 @@ TEST(GeometryCloud, OrganisedRecordsEqualDisparityToPoints) {
   }
 }
 
+// A subsampled depth image with the subsampled camera: the full image's
+// points and colours at the kept pixels (within float rounding), on a grid of
+// ceil(size / stride), for strides that divide the size and ones that do not.
+TEST(GeometryCloud, SubsampledDepthGivesTheFullImagesPointsAtTheKeptPixels) {
+  const StereoCamera camera = cloudCamera();
+  const cv::Mat disparity = mixedDisparity(9, 13, 3);
+  cv::Mat depth, points, bgr(disparity.size(), CV_8UC3);
+  cv::randu(bgr, 0, 256);
+  bdis::disparityToDepth(disparity, camera, depth);
+  bdis::disparityToPoints(disparity, camera, points);
+  for (const int stride : {1, 2, 3, 4, 13}) {
+    SCOPED_TRACE("stride " + std::to_string(stride));
+    cv::Mat small_depth, small_bgr;
+    bdis::subsample(depth, stride, small_depth);
+    bdis::subsample(bgr, stride, small_bgr);
+    ASSERT_EQ(small_depth.size(), cv::Size((13 + stride - 1) / stride, (9 + stride - 1) / stride));
+    ASSERT_EQ(small_bgr.size(), small_depth.size());
+    std::vector<uint8_t> buffer(small_depth.total() * bdis::kColouredPointBytes);
+    bdis::writePointCloud(small_depth, camera.subsampled(stride), small_bgr, true, nullptr,
+                          bdis::kColouredPointBytes, buffer.data());
+    for (int y = 0; y < small_depth.rows; ++y) {
+      for (int x = 0; x < small_depth.cols; ++x) {
+        const Record r =
+            readRecord(buffer, (static_cast<std::size_t>(y) * small_depth.cols + x) * bdis::kColouredPointBytes, true);
+        const cv::Vec3f q = points.at<cv::Vec3f>(y * stride, x * stride);
+        if (std::isnan(q[2])) {
+          EXPECT_TRUE(std::isnan(r.x) && std::isnan(r.y) && std::isnan(r.z)) << "at " << x << ", " << y;
+        } else {
+          EXPECT_NEAR(r.x, q[0], 1e-6 * std::fabs(q[2])) << "at " << x << ", " << y;
+          EXPECT_NEAR(r.y, q[1], 1e-6 * std::fabs(q[2])) << "at " << x << ", " << y;
+          EXPECT_EQ(r.z, q[2]) << "at " << x << ", " << y;
+        }
+        EXPECT_EQ(r.rgb, packed(bgr.at<cv::Vec3b>(y * stride, x * stride))) << "at " << x << ", " << y;
+      }
+    }
+  }
+  cv::Mat out;
+  EXPECT_THROW(bdis::subsample(depth, 0, out), std::invalid_argument);
+  EXPECT_THROW(camera.subsampled(0), std::invalid_argument);
+  // In place: the kept pixels, at the smaller size.
+  cv::Mat in_place = depth.clone();
+  bdis::subsample(in_place, 2, in_place);
+  EXPECT_EQ(in_place.size(), cv::Size(7, 5));
+  EXPECT_TRUE(sameFloat(in_place.at<float>(2, 3), depth.at<float>(4, 6)));
+}
+
 TEST(GeometryCloud, DenseKeepsOnlyThePointsWithDepthInRasterOrder) {
   const StereoCamera camera = cloudCamera();
   const cv::Mat disparity = mixedDisparity(9, 13, 5);

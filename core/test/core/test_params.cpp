@@ -188,6 +188,32 @@ TEST(ParamsValidation, EveryFieldRejectsOutOfRangeValuesNamingTheField) {
   EXPECT_GE(checked_fields, 10);
 }
 
+TEST(ParamsLevels, FinestLevelFollowsTheWidthUnlessSet) {
+  MatcherParams p;  // finest_level -1
+  EXPECT_EQ(p.finestLevelFor(320), 1);
+  EXPECT_EQ(p.finestLevelFor(640), 1);
+  EXPECT_EQ(p.finestLevelFor(720), 1);
+  EXPECT_EQ(p.finestLevelFor(904), 1);
+  EXPECT_EQ(p.finestLevelFor(906), 2);
+  EXPECT_EQ(p.finestLevelFor(1280), 2);
+  EXPECT_EQ(p.finestLevelFor(1920), 3);
+  EXPECT_EQ(p.finestLevelFor(3840), 4);
+  // The check's tolerance doubles where the width raised the level, not otherwise.
+  EXPECT_EQ(p.checkToleranceFor(640), p.lr_check_tolerance);
+  EXPECT_EQ(p.checkToleranceFor(1280), 2.f * p.lr_check_tolerance);
+  EXPECT_EQ(p.checkToleranceFor(1920), 2.f * p.lr_check_tolerance);
+  // Never coarser than coarsest_level.
+  p.coarsest_level = 2;
+  EXPECT_EQ(p.finestLevelFor(3840), 2);
+  // An explicit level is honoured at any width, and so is the tolerance.
+  p.coarsest_level = 5;
+  p.finest_level = 1;
+  EXPECT_EQ(p.finestLevelFor(1920), 1);
+  EXPECT_EQ(p.checkToleranceFor(1920), p.lr_check_tolerance);
+  p.finest_level = 0;
+  EXPECT_EQ(p.finestLevelFor(320), 0);
+}
+
 TEST(ParamsValidation, FinestLevelCoarserThanCoarsestIsRejected) {
   MatcherParams p;
   p.coarsest_level = 2;

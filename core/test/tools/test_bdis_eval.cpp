@@ -77,6 +77,31 @@ TEST_F(BdisEvalTest, ScoresPredictionsAndSkipsFramesWithoutOne) {
   EXPECT_EQ(jsonNumber(readFile(path("b.json")), "dis_fast", "frames"), 2);
 }
 
+// --reference-width W scales the errors by W / width: 3 px off on a 64 px
+// wide frame are 1.5 px of a 32 px one, no longer bad2.
+TEST_F(BdisEvalTest, ReferenceWidthCountsErrorsInThatFramesPixels) {
+  writeSequence();
+  cv::Mat d(kHeight, kWidth, CV_32FC1, cv::Scalar(kTrueDisparity));
+  d.colRange(0, kWidth / 4).setTo(kTrueDisparity + 3.f);
+  for (const char* name : {"000000.png", "000001.png", "000002.png"}) {
+    bdis::writeDisparityPng(path(std::string("pred/") + name), d);
+  }
+  const RunResult own = run({path("seq"), "--predictions", path("pred"), "--json", path("own.json")});
+  ASSERT_EQ(own.code(), 0) << own.err;
+  EXPECT_NEAR(jsonNumber(readFile(path("own.json")), "predictions", "bad2"), 0.25, 1e-6);
+  const RunResult half = run({path("seq"), "--predictions", path("pred"), "--reference-width", "32", "--json",
+                              path("half.json")});
+  ASSERT_EQ(half.code(), 0) << half.err;
+  EXPECT_NEAR(jsonNumber(readFile(path("half.json")), "predictions", "bad2"), 0.0, 1e-6);
+  const RunResult twice = run({path("seq"), "--predictions", path("pred"), "--reference-width", "128", "--json",
+                               path("twice.json")});
+  ASSERT_EQ(twice.code(), 0) << twice.err;
+  EXPECT_NEAR(jsonNumber(readFile(path("twice.json")), "predictions", "bad2"), 0.25, 1e-6);
+  const RunResult zero = run({path("seq"), "--predictions", path("pred"), "--reference-width", "0"});
+  EXPECT_EQ(zero.code(), 2);
+  EXPECT_NE(zero.err.find("--reference-width"), std::string::npos) << zero.err;
+}
+
 TEST_F(BdisEvalTest, PredictionErrors) {
   writeSequence();
   const RunResult two = run({path("seq"), path("seq"), "--predictions", path("pred")});

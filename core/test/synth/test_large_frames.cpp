@@ -1,0 +1,75 @@
+// The default parameters on HD frames: the same scene (sample variant, focal
+// length 0.8125 x width, so the same horizontal field of view) rendered at
+// 640x480, 1280x720 and 1920x1080. With finest_level = -1 the matcher
+// searches 1280 px frames at level 2 and 1920 px frames at level 3, so a
+// patch covers about as much of the scene as on the 640x480 frames the
+// presets were tuned on. The 640x480 frame is matched whole and scored on
+// its middle 360 rows, the part of the scene the 16:9 frames show; errors
+// are counted in pixels of the 640 px frame (x 640 / width).
+// Part of test_synth (it needs the generator).
+#include <gtest/gtest.h>
+
+#include "bdis_stereo/evaluation.hpp"
+#include "bdis_stereo/matcher.hpp"
+#include "synth_test_util.hpp"
+
+#include <string>
+
+namespace {
+
+using namespace synth_test;
+
+constexpr int kReferenceWidth = 640;
+
+SceneConfig sampleAt(int width, int height) {
+  SceneConfig c = variant("sample");
+  c.width = width;
+  c.height = height;
+  c.supersampling = 1;  // the same for every size; keeps a 1920x1080 render to seconds
+  return c;
+}
+
+const int kFrames[] = {0, 2};
+
+/// Scores frames `width` x `height` on their middle `scored_rows` rows.
+bdis::DisparityScore scoreAt(int width, int height, const bdis::MatcherParams& params, int scored_rows) {
+  cv::setNumThreads(1);
+  bdis::Matcher matcher(params);
+  bdis::MatchResult r;
+  bdis::DisparityScore s;
+  const cv::Rect scored(0, (height - scored_rows) / 2, width, scored_rows);
+  for (int i : kFrames) {
+    const SyntheticFrame& f = cachedFrame(sampleAt(width, height), i);
+    matcher.compute(f.left, f.right, r);
+    s.add(bdis::scoreDisparity(r.disparity(scored), f.gt(scored), f.left(scored),
+                               static_cast<double>(kReferenceWidth) / width));
+  }
+  const std::string what = std::to_string(width) + "x" + std::to_string(height) + " (" +
+                           std::to_string(scored_rows) + " rows scored), finest level " +
+                           std::to_string(params.finestLevelFor(width));
+  printScore(what.c_str(), s);
+  return s;
+}
+
+// Measured when set, frames 0 and 2 (density / median / bad2, errors in
+// pixels of the 640 px frame):
+//   640x480, middle 360 rows, level 1: 0.884 / 0.133 / 4.5%
+//   1280x720                 level 2: 0.901 / 0.110 / 4.3%
+//   1920x1080                level 3: 0.897 / 0.117 / 4.3%
+// For comparison, 1920x1080 searched at level 1 (finest_level = 1): 16 times
+// the patches for 0.766 / 0.123 / 1.4%; its 8 px patches see a ninth of the
+// scene and the left-right check, 1 px at level 1, is three times stricter.
+// The bars: no worse than the 640x480 frame, within rounding.
+TEST(LargeFrames, DefaultsScoreOnHdFramesAsOnTheFramesTheyWereTunedOn) {
+  const bdis::MatcherParams defaults;
+  const bdis::DisparityScore reference = scoreAt(640, 480, defaults, 360);
+  for (const cv::Size size : {cv::Size(1280, 720), cv::Size(1920, 1080)}) {
+    SCOPED_TRACE(std::to_string(size.width) + "x" + std::to_string(size.height));
+    const bdis::DisparityScore hd = scoreAt(size.width, size.height, defaults, size.height);
+    EXPECT_GE(hd.density(), reference.density() - 0.005);
+    EXPECT_LE(hd.medianError(), reference.medianError() + 0.01);
+    EXPECT_LE(hd.bad2Rate(), reference.bad2Rate() + 0.002);
+  }
+}
+
+}  // namespace
