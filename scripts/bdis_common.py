@@ -1,7 +1,7 @@
 """What the package's Python programs and tests share, written once: a free
 port, the package's programs and embedded sample, camera.yaml, sensor_msgs
 to and from numpy, waiting for a condition, what the ROS master knows, and
-stopping a process group. Installed beside bdis_demo and bdis_make_bag, which import it by
+stopping a process group, montage panels. Installed beside bdis_demo and bdis_make_bag, which import it by
 path, as do the tests (test/demo, test/ros); the shell scripts reach it through
 scripts/common.sh, which runs it as a command:
 
@@ -205,6 +205,35 @@ def cloud_array(msg):
     dtype = np.dtype({"names": names, "formats": ["<f4"] * len(names),
                       "offsets": [f.offset for f in msg.fields], "itemsize": msg.point_step})
     return np.frombuffer(msg.data, dtype=dtype).reshape(msg.height, msg.width)
+
+
+# ---------------------------------------------------------------- pictures
+def colour_map(values, valid, lo, hi):
+    """values in [lo, hi] as a turbo colour image (BGR), black where not valid."""
+    import cv2
+    import numpy as np
+    scaled = np.zeros(values.shape, np.uint8)
+    if hi > lo:
+        scaled = np.clip((values - lo) / (hi - lo) * 255.0, 0, 255).astype(np.uint8)
+    out = cv2.applyColorMap(scaled, cv2.COLORMAP_TURBO)
+    out[~valid] = 0
+    return out
+
+
+def grey_panel(values):
+    """values in [0, 1] as a grey BGR image (0 black, 1 white)."""
+    import cv2
+    import numpy as np
+    return cv2.cvtColor((np.clip(values, 0, 1) * 255).astype(np.uint8), cv2.COLOR_GRAY2BGR)
+
+
+def labelled(panel, text, size):
+    """The panel resized to size (width, height) with text on a black band."""
+    import cv2
+    panel = cv2.resize(panel, size, interpolation=cv2.INTER_AREA)
+    cv2.rectangle(panel, (0, 0), (size[0], 18), (0, 0, 0), -1)
+    cv2.putText(panel, text, (4, 13), cv2.FONT_HERSHEY_SIMPLEX, 0.42, (255, 255, 255), 1, cv2.LINE_AA)
+    return panel
 
 
 # ---------------------------------------------------------------- the ROS master
