@@ -1,9 +1,10 @@
 """What the package's Python programs and tests share, written once: a free
 port, the package's programs and embedded sample, camera.yaml, sensor_msgs
 to and from numpy (raw, compressed, distorted as a camera would see a
-rectified image), the demo's pictures and PLY clouds, a bag's stereo inputs, waiting for a condition, what the
-ROS master knows, and stopping a process group. Installed beside bdis_demo and bdis_make_bag, which import it by
-path, as do the tests (test/demo, test/ros); the shell scripts reach it through
+rectified image), the montage panels and PLY clouds of bdis_demo and
+disparity_montage.py, a bag's stereo inputs, waiting for a condition, what the
+ROS master knows, and stopping a process group. Installed beside bdis_demo and
+bdis_make_bag, which import it by path, as do the tests (test/demo, test/ros); the shell scripts reach it through
 scripts/common.sh, which runs it as a command:
 
     bdis_common.py free-port                 a TCP port free on loopback now
@@ -287,7 +288,7 @@ def cloud_array(msg):
     return np.frombuffer(msg.data, dtype=dtype).reshape(msg.height, msg.width)
 
 
-# ---------------------------------------------------------------- pictures (bdis_demo)
+# ---------------------------------------------------------------- pictures (bdis_demo, disparity_montage.py)
 MONTAGE_PANEL = (320, 240)  # width, height of one panel
 
 
@@ -302,10 +303,18 @@ def colour_map(values, valid, lo, hi):
     return out
 
 
-def labelled(panel, text):
+def grey_panel(values):
+    """values in [0, 1] as a grey BGR image (0 black, 1 white)."""
     import cv2
-    panel = cv2.resize(panel, MONTAGE_PANEL, interpolation=cv2.INTER_AREA)
-    cv2.rectangle(panel, (0, 0), (MONTAGE_PANEL[0], 18), (0, 0, 0), -1)
+    import numpy as np
+    return cv2.cvtColor((np.clip(values, 0, 1) * 255).astype(np.uint8), cv2.COLOR_GRAY2BGR)
+
+
+def labelled(panel, text, size=MONTAGE_PANEL):
+    """The panel resized to size (width, height) with text on a black band."""
+    import cv2
+    panel = cv2.resize(panel, size, interpolation=cv2.INTER_AREA)
+    cv2.rectangle(panel, (0, 0), (size[0], 18), (0, 0, 0), -1)
     cv2.putText(panel, text, (4, 13), cv2.FONT_HERSHEY_SIMPLEX, 0.42, (255, 255, 255), 1, cv2.LINE_AA)
     return panel
 
@@ -328,8 +337,7 @@ def write_montage(path, msgs, left_label):
               labelled(colour_map(d, valid, d_lo, d_hi),
                        "disparity %.0f-%.0f px (black: none)" % (d_lo, d_hi))]
     conf = image_array(msgs["confidence"]) if "confidence" in msgs else np.zeros_like(d)
-    panels.append(labelled(cv2.cvtColor((np.clip(conf, 0, 1) * 255).astype(np.uint8), cv2.COLOR_GRAY2BGR),
-                           "confidence 0 (black) - 1 (white)"))
+    panels.append(labelled(grey_panel(conf), "confidence 0 (black) - 1 (white)"))
     depth = image_array(msgs["depth"]) if "depth" in msgs else np.full_like(d, np.nan)
     finite = np.isfinite(depth)
     z_lo, z_hi = (np.percentile(depth[finite], [1, 99]) if finite.any() else (0, 1))

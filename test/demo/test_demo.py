@@ -284,6 +284,38 @@ class TestDemo(unittest.TestCase):
         self.assertIn("interrupted: stopping everything the demo started", run.output)
         self.assertEqual(run.leftovers(), [], "processes left after Ctrl-C")
 
+    def test_7_disparity_montage_compares_runs_on_the_view(self):
+        """scripts/disparity_montage.py: one row per run plus the left image
+        and ground truth, cropped to the non-black view; errors exit 1 / 2."""
+        root = os.path.join(self.tmp, "montage")
+        left = np.zeros((60, 80, 3), np.uint8)
+        left[10:50, 20:80] = 120  # the view: 60 x 40 px, black elsewhere
+        d = np.zeros((60, 80), np.uint16)
+        d[10:50, 20:50] = 5 * 256  # an estimate on half the view
+        for sub, image in (("seq/left", left), ("seq/gt_disparity", d), ("a/d", d), ("b/d", d), ("b/c", d)):
+            os.makedirs(os.path.join(root, sub), exist_ok=True)
+            self.assertTrue(cv2.imwrite(os.path.join(root, sub, "000000.png"), image))
+        script = os.path.join(REPO, "scripts", "disparity_montage.py")
+        out = os.path.join(root, "m.png")
+
+        def montage(*runs):
+            return subprocess.run([sys.executable, script, os.path.join(root, "seq"), "000000.png", out]
+                                  + list(runs), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        r = montage("a=%s/a/d" % root, "b=%s/b/d:%s/b/c" % (root, root))
+        self.assertEqual(r.returncode, 0, r.stdout)
+        picture = cv2.imread(out)
+        # Panels 360 px wide, 240 high (the view's 3:2); two columns, three rows.
+        self.assertEqual(picture.shape, (3 * 240, 2 * 360, 3))
+        # Run a's disparity: coloured on the left half of the view, black on the right half.
+        panel = picture[240:480, 0:360]
+        self.assertGreater(panel[60:230, 20:160].mean(), 20)
+        self.assertEqual(panel[60:230, 200:350].max(), 0)
+        self.assertIn("wrote", r.stdout)
+        missing = montage("a=%s/nowhere" % root)
+        self.assertEqual(missing.returncode, 1, missing.stdout)
+        self.assertIn("cannot read", missing.stdout)
+        self.assertEqual(montage("no_equals_sign").returncode, 2)
+
 
 if __name__ == "__main__":
     import rosunit
