@@ -146,6 +146,10 @@ fi
 [ -f "$RESULTS_DIR/bdis_stereo/rosunit-demo.xml" ] || { status=1; log "the demo tests wrote no results"; }
 log "test artifacts (rviz screenshot): $ARTIFACTS_DIR"
 
+# The install space (catkin_make install) in a clean environment: the tools,
+# the launch files, a downstream CMake project, the nodelet on a bag.
+"$REPO_DIR/scripts/test_install.sh" "$RESULTS_DIR" || status=1
+
 # The same tests built with ASan + UBSan (results in asan/), and libFuzzer over
 # the core (fuzz/). BDIS_SANITIZE=0 skips both (about 8 minutes on 2 cores).
 if [ "${BDIS_SANITIZE:-1}" != "0" ]; then
