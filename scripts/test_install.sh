@@ -51,16 +51,21 @@ result catkin_make_install
 
 status=0
 # check NAME SCRIPT: runs the bash SCRIPT in the install environment, its output in WORK/NAME.log.
+# The JUnit case gets the output without control characters (ROS logs colour
+# their lines), which XML cannot hold.
 check() {
   local name="$1" script="$2" log_file="$WORK/$1.log"
   log "install space: $name"
-  if (in_install bash -euo pipefail -c "$script") >"$log_file" 2>&1; then
-    result "$name" --output "$(tail -c 4000 "$log_file")"
+  local rc=0
+  (in_install bash -euo pipefail -c "$script") >"$log_file" 2>&1 || rc=$?
+  tr -d '\000-\010\013\014\016-\037' <"$log_file" >"$log_file.txt"
+  if [ "$rc" -eq 0 ]; then
+    result "$name" --output "$(tail -c 4000 "$log_file.txt")"
   else
     status=1
     tail -n 30 "$log_file"
     log "install space: $name failed (full log: $log_file)"
-    result "$name" --failure "$name failed in the install space" --details "$log_file"
+    result "$name" --failure "$name failed in the install space" --details "$log_file.txt"
   fi
 }
 
