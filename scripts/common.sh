@@ -16,8 +16,10 @@ log() { printf '\033[1m[bdis]\033[0m %s\n' "$*" >&2; }
 
 # Debian 12 ships ROS 1 itself; on Ubuntu 20.04 the packages come from ROS Noetic.
 DEBIAN_PACKAGES=(
-  catkin python3-catkin-pkg ros-base-dev libopencv-dev libeigen3-dev
+  catkin python3-catkin-pkg ros-base-dev libopencv-dev
   libgtest-dev googletest libbenchmark-dev
+  # the package's lint (scripts/test.sh)
+  catkin-lint
   # ROS layer: nodelet, its build and run dependencies, launch and bag tools
   libnodelet-dev libnodeletlib-dev libnodeletlib-tools pluginlib-dev libimage-transport-dev
   libmessage-filters-dev libimage-geometry-dev libstereo-msgs-dev libtf2-dev libtf2-ros-dev
@@ -50,9 +52,14 @@ install_dependencies() {
       log "installing dependencies with rosdep"
       rosdep install --from-paths "$REPO_DIR" --ignore-src -y -q
     fi
-    if ! dpkg -s libbenchmark-dev >/dev/null 2>&1; then
-      sudo_if_needed env DEBIAN_FRONTEND=noninteractive apt-get install -y -q libbenchmark-dev || true
-    fi
+    # Not in package.xml (no rosdep key of the package needs them): Google
+    # Benchmark for bdis_bench, catkin_lint for the lint case of test.sh.
+    local extra
+    for extra in libbenchmark-dev python3-catkin-lint; do
+      if ! dpkg -s "$extra" >/dev/null 2>&1; then
+        sudo_if_needed env DEBIAN_FRONTEND=noninteractive apt-get install -y -q "$extra" || true
+      fi
+    done
     return
   fi
   local missing=()
@@ -73,6 +80,9 @@ install_dependencies() {
 link_package_source() {
   local pkg="$WS_DIR/src/bdis_stereo" ws_real entry
   mkdir -p "$WS_DIR/src"
+  # The workspace lies inside the checkout: tools that walk the package's
+  # folder (catkin_lint, catkin's package search) leave it out.
+  touch "$WS_DIR/CATKIN_IGNORE"
   [ -L "$pkg" ] && rm "$pkg"
   mkdir -p "$pkg"
   find "$pkg" -maxdepth 1 -type l ! -exec test -e {} \; -delete  # entries gone from the repo

@@ -16,8 +16,15 @@ std::string noPairWarning(const InputStatus& input, bool approximate_sync, doubl
      << l << " left images (" << input.topics[0] << "), " << r << " right images (" << input.topics[1]
      << "), " << li << " left camera_infos (" << input.topics[2] << ") and " << ri << " right camera_infos ("
      << input.topics[3] << ") arrived. Likely causes: ";
-  if (l == 0 || r == 0) os << "an image topic is silent (check the topic names and remapping); ";
-  if (li == 0 || ri == 0) os << "camera_info missing (is the driver publishing it? check the names); ";
+  // Each silent input by name: the others arrive, so this one is the cause.
+  const uint64_t since_pair[] = {l, r, li, ri};
+  const char* const names[] = {"left image", "right image", "left camera_info", "right camera_info"};
+  for (int i = 0; i < 4; ++i) {
+    if (since_pair[i] != 0) continue;
+    os << "the " << names[i] << " (" << input.topics[i] << ") is silent"
+       << (i < 2 ? " (check the topic names and remapping); "
+                 : ": camera_info missing (is the driver publishing it? check the names); ");
+  }
   if (l && r && li && ri) {
     os << (approximate_sync ? "stamps too far apart even for approximate_sync (check the driver clocks); "
                             : "the stamps differ (try approximate_sync:=true); ");

@@ -25,9 +25,11 @@ namespace {
 
 constexpr float kInvalidDisparity = -1.0f;  // DisparityImage: min_disparity (0) - 1
 
+// 8UC1 and 8UC3 carry the same bytes as mono8 and bgr8 (drivers and
+// cv_bridge::toImageMsg without an encoding publish them): taken as those.
 int channelsOf(const std::string& encoding) {
-  if (encoding == enc::MONO8) return 1;
-  if (encoding == enc::BGR8 || encoding == enc::RGB8) return 3;
+  if (encoding == enc::MONO8 || encoding == enc::TYPE_8UC1) return 1;
+  if (encoding == enc::BGR8 || encoding == enc::RGB8 || encoding == enc::TYPE_8UC3) return 3;
   if (encoding == enc::BGRA8 || encoding == enc::RGBA8) return 4;
   return 0;
 }
@@ -38,7 +40,22 @@ std::string num(double v) {
   return os.str();
 }
 
-// "" when all 12 entries of P are finite, else the index of the first bad one.
+// The largest focal length taken as plausible: a 4096 px wide image at 1e6 px
+// spans a quarter of a degree. Beyond that P is in the wrong unit or garbage,
+// and near 1e38 the float32 outputs (DisparityImage f, depth) become infinite.
+constexpr double kMaxFocalLengthPx = 1e6;
+// The largest baseline taken as plausible, in the unit of P[3] / fx: a
+// kilometre in millimetres. With the focal length bound it keeps
+// fx * baseline (depth = fx * baseline / disparity) far inside float32.
+constexpr double kMaxBaseline = 1e6;
+// Tolerances of the entries a rectified P has as exact zeros (stereoRectify
+// writes zeros; calibration files may round them to a tiny value): relative
+// to fx for the pixel entries, to the baseline for the translations.
+constexpr double kZeroPixelTolerance = 1e-6;
+constexpr double kZeroTranslationTolerance = 1e-3;
+
+// "" when all 12 entries of P are finite, the focal lengths positive and
+// plausible and P[10] = 1, else what is wrong, naming the entry.
 std::string checkProjection(const sensor_msgs::CameraInfo& info, const char* side) {
   for (int i = 0; i < 12; ++i) {
     if (!std::isfinite(info.P[i])) {
@@ -51,6 +68,13 @@ std::string checkProjection(const sensor_msgs::CameraInfo& info, const char* sid
            num(info.P[5]) +
            ": focal lengths must be > 0; is the camera calibrated (an all-zero camera_info means "
            "uncalibrated)?";
+  }
+  for (int i : {0, 5}) {
+    if (info.P[i] > kMaxFocalLengthPx) {
+      return std::string(side) + " camera_info P[" + std::to_string(i) + "] (" +
+             (i == 0 ? "fx" : "fy") + ") = " + num(info.P[i]) + " px is not plausible (at most " +
+             num(kMaxFocalLengthPx) + " px): is the calibration in pixels?";
+    }
   }
   if (info.P[10] != 1.0) {
     return std::string(side) + " camera_info P[10] = " + num(info.P[10]) +
@@ -69,6 +93,29 @@ std::string checkImageSize(const std::string& side, uint64_t width, uint64_t hei
   if (width < static_cast<uint64_t>(bdis::kMinImageSide) || height < static_cast<uint64_t>(bdis::kMinImageSide)) {
     return side + " image is " + std::to_string(width) + "x" + std::to_string(height) +
            ": each side must be at least " + std::to_string(bdis::kMinImageSide) + " px";
+  }
+  return "";
+}
+
+// "" when P has the form of a rectified camera, [fx 0 cx Tx; 0 fy cy 0; 0 0 1 0]
+// (up to rounding), apart from Ty = P[7] and Tz = P[11], which checkTranslation
+// checks once the baseline is known; else the first entry that is not.
+std::string checkRectifiedForm(const sensor_msgs::CameraInfo& info, const char* side) {
+  const struct {
+    int index;
+    const char* what;
+    double tolerance;
+  } zeros[] = {{1, "skew", kZeroPixelTolerance * info.P[0]},
+               {4, "P[1][0]", kZeroPixelTolerance * info.P[5]},
+               {8, "P[2][0]", kZeroPixelTolerance},
+               {9, "P[2][1]", kZeroPixelTolerance}};
+  for (const auto& zero : zeros) {
+    if (std::abs(info.P[zero.index]) > zero.tolerance) {
+      return std::string(side) + " camera_info P[" + std::to_string(zero.index) + "] (" + zero.what +
+             ") = " + num(info.P[zero.index]) +
+             " but a rectified P has 0 there: publish the rectified projection matrix "
+             "(stereo calibration, e.g. camera_calibration or stereoRectify), not K";
+    }
   }
   return "";
 }
@@ -155,6 +202,22 @@ std::string readPngHeader(const uint8_t* data, std::size_t size, CompressedImage
   return "is a truncated PNG (no IEND chunk)";
 }
 
+// "" when Ty = P[7] and Tz = P[11] are 0 in both cameras (a horizontal pair,
+// rectified to one image plane), up to a fraction of the baseline.
+std::string checkTranslation(const sensor_msgs::CameraInfo& info, const char* side, double baseline) {
+  const double ty_tolerance = kZeroTranslationTolerance * baseline * info.P[5];
+  if (std::abs(info.P[7]) > ty_tolerance) {
+    return std::string(side) + " camera_info P[7] (Ty) = " + num(info.P[7]) +
+           " but a horizontal stereo pair has 0 there (baseline " + num(baseline) +
+           "): the cameras are not rectified side by side (vertical pairs are not supported)";
+  }
+  if (std::abs(info.P[11]) > kZeroTranslationTolerance * baseline) {
+    return std::string(side) + " camera_info P[11] (Tz) = " + num(info.P[11]) +
+           " but a rectified pair has 0 there: the cameras are not rectified to one image plane";
+  }
+  return "";
+}
+
 /// Sizes `msg` as a dense 32FC1 image and returns a Mat over its data.
 cv::Mat floatImageOver(int rows, int cols, sensor_msgs::Image& msg) {
   msg.height = rows;
@@ -189,8 +252,8 @@ std::string checkImage(const sensor_msgs::Image& image, const char* side, std::s
   }
   if (!isSupportedEncoding(image.encoding)) {
     return s + " image has encoding '" + image.encoding +
-           "': supported are mono8, bgr8, rgb8, bgra8, rgba8 (8-bit); convert 16-bit or Bayer "
-           "images first (e.g. image_proc)";
+           "': supported are mono8, bgr8, rgb8, bgra8, rgba8, 8UC1 (as mono8) and 8UC3 (as "
+           "bgr8); convert 16-bit or Bayer images first (e.g. image_proc)";
   }
   const std::string size_error = checkImageSize(s, image.width, image.height, max_pixels);
   if (!size_error.empty()) return size_error;
@@ -356,6 +419,7 @@ std::string stereoCameraFromInfo(const sensor_msgs::CameraInfo& left,
   for (const auto* info : {&left, &right}) {
     const char* side = info == &left ? "left" : "right";
     std::string err = checkProjection(*info, side);
+    if (err.empty()) err = checkRectifiedForm(*info, side);
     if (!err.empty()) return err;
     if (info->binning_x > 64 || info->binning_y > 64) {
       return std::string(side) + " camera_info binning " + std::to_string(info->binning_x) + "x" +
@@ -398,6 +462,15 @@ std::string stereoCameraFromInfo(const sensor_msgs::CameraInfo& left,
     return "right camera_info P[3] = " + num(right_tx) + " gives baseline " + num(baseline) +
            " <= 0: are the cameras swapped? (the right camera's P[3] must be -fx * baseline < 0)";
   }
+  if (!(baseline <= kMaxBaseline)) {
+    return "right camera_info P[3] = " + num(right_tx) + " gives baseline " + num(baseline) +
+           " (-P[3] / fx), which is not plausible (at most " + num(kMaxBaseline) +
+           "): is P[3] = -fx * baseline?";
+  }
+  for (const auto* info : {&left, &right}) {
+    const std::string err = checkTranslation(*info, info == &left ? "left" : "right", baseline);
+    if (!err.empty()) return err;
+  }
   camera.fx = fx;
   camera.fy = lm.fy();
   camera.cx = lm.cx();
@@ -417,7 +490,10 @@ cv::Mat matcherView(const sensor_msgs::Image& image, cv::Mat& buffer) {
   const int type = CV_MAKETYPE(CV_8U, channels);
   const cv::Mat wrapped(static_cast<int>(image.height), static_cast<int>(image.width), type,
                         const_cast<uint8_t*>(image.data.data()), image.step);
-  if (image.encoding == enc::MONO8 || image.encoding == enc::BGR8) return wrapped;
+  if (image.encoding == enc::MONO8 || image.encoding == enc::BGR8 ||
+      image.encoding == enc::TYPE_8UC1 || image.encoding == enc::TYPE_8UC3) {
+    return wrapped;
+  }
   int code = cv::COLOR_RGB2BGR;
   if (image.encoding == enc::BGRA8) code = cv::COLOR_BGRA2BGR;
   if (image.encoding == enc::RGBA8) code = cv::COLOR_RGBA2BGR;

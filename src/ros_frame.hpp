@@ -24,7 +24,7 @@ namespace bdis_stereo {
 /// refused (bounded memory and time). 4096 x 4096.
 constexpr std::size_t kDefaultMaxImagePixels = 4096u * 4096u;
 
-/// mono8, bgr8, rgb8, bgra8, rgba8.
+/// mono8, bgr8, rgb8, bgra8, rgba8, and 8UC1 / 8UC3 (the bytes of mono8 / bgr8).
 bool isSupportedEncoding(const std::string& encoding);
 
 /// Checks one input image: not empty, at least bdis::kMinImageSide per side,
@@ -78,9 +78,11 @@ std::string checkRawFrame(const sensor_msgs::Image& image, const sensor_msgs::Ca
 
 /// Builds the rectified stereo model from the two camera_infos (image_geometry,
 /// so binning and ROI are applied) and checks it against the image size:
-/// finite projection matrices, fx, fy > 0 in both, equal fx, camera_info size
-/// equal to the image size (when the camera_info gives one), right P[3] < 0
-/// (a positive baseline). Differing frame_ids are accepted. On success fills
+/// finite projection matrices of the rectified form [fx 0 cx Tx; 0 fy cy 0;
+/// 0 0 1 0] (no skew, Ty = Tz = 0, up to rounding), 0 < fx, fy <= 1e6 px in
+/// both, equal fx, camera_info size equal to the image size (when the
+/// camera_info gives one), right P[3] < 0 (a positive baseline, at most 1e6).
+/// Differing frame_ids are accepted. On success fills
 /// `camera` (baseline in the unit of P[3] / fx, metres by ROS convention) and
 /// returns "".
 std::string stereoCameraFromInfo(const sensor_msgs::CameraInfo& left,
@@ -88,7 +90,7 @@ std::string stereoCameraFromInfo(const sensor_msgs::CameraInfo& left,
                                  int image_height, bdis::StereoCamera& camera);
 
 /// A view of a checked image in what the matcher takes: CV_8UC1 (mono8) or
-/// CV_8UC3 BGR. mono8 and bgr8 are wrapped without a copy (the view lives as
+/// CV_8UC3 BGR. mono8, 8UC1, bgr8 and 8UC3 are wrapped without a copy (the view lives as
 /// long as `image`); rgb8, bgra8, rgba8 are converted into `buffer`, which is
 /// reused from frame to frame.
 cv::Mat matcherView(const sensor_msgs::Image& image, cv::Mat& buffer);

@@ -61,6 +61,10 @@ void StereoCamera::validate() const {
     throw std::invalid_argument("camera baseline must be > 0, got " + std::to_string(baseline) +
                                 ": are the cameras swapped?");
   }
+  // Each finite, the product can still overflow: every depth would be infinite.
+  if (!std::isfinite(fx * baseline)) {
+    throw std::invalid_argument("camera fx * baseline is not finite: fx or baseline is far too large");
+  }
 }
 
 float StereoCamera::depth(float disparity) const {

@@ -60,6 +60,11 @@ options:
                        other methods run only when --methods names them; a confidence
                        DIR/conf_<frame>.png (16-bit, c*65535; what --dump-dir writes) is
                        scored with it
+  --max-image-pixels N refuse images (left, right, ground truth, predictions) of
+                       more than N pixels (default 16777216 = 4096x4096, as the
+                       nodelet's max_image_pixels); read from the file's header
+                       before decoding (PNG, JPEG, BMP, PNM), after decoding
+                       for other formats
 )";
 
 /// A disparity method under test: fills CV_32FC1 disparity, negative = none,
@@ -128,15 +133,19 @@ Method makeSgbm() {
 
 // Disparities computed elsewhere, one 16-bit PNG per frame name, and their
 // confidence where a conf_<frame>.png (16-bit, c * 65535) is there too.
-Method makePredictions(const std::string& dir, const std::string* const* current_name) {
+Method makePredictions(const std::string& dir, const std::string* const* current_name,
+                       std::size_t max_image_pixels) {
   auto confidence = std::make_shared<cv::Mat>();
   return {"predictions",
-          [dir, current_name, confidence](const cv::Mat&, const cv::Mat&, cv::Mat& d) {
+          [dir, current_name, confidence, max_image_pixels](const cv::Mat&, const cv::Mat&, cv::Mat& d) {
             const std::filesystem::path root(dir);
-            d = readDisparityPng((root / **current_name).string());
+            const std::string prediction = (root / **current_name).string();
+            checkImagePixels(prediction, max_image_pixels);
+            d = readDisparityPng(prediction);
             const std::filesystem::path conf = root / ("conf_" + **current_name);
             confidence->release();
             if (!std::filesystem::exists(conf)) return;
+            checkImagePixels(conf.string(), max_image_pixels);
             const cv::Mat raw = cv::imread(conf.string(), cv::IMREAD_UNCHANGED);
             if (raw.type() != CV_16UC1 || raw.size() != d.size()) {
               throw std::runtime_error(conf.string() + " is not a 16-bit confidence of the disparity's size");
@@ -177,6 +186,7 @@ struct Options {
   std::vector<std::string> method_names = {"bdis", "dis_fast", "dis_medium", "sgbm"};
   size_t max_frames = 0;  ///< 0: every frame
   int reference_width = 0;  ///< 0: errors in the frame's own pixels
+  std::size_t max_image_pixels = kDefaultMaxImagePixels;
   bool help = false;
 };
 
@@ -212,6 +222,8 @@ Options parseOptions(int argc, char** argv) {
       o.predictions_dir = value();
     } else if (a == "--json") {
       o.json_path = value();
+    } else if (a == "--max-image-pixels") {
+      o.max_image_pixels = parseMaxImagePixels(value());
     } else if (!a.empty() && a[0] == '-') {
       throw UsageError("unknown option " + a);
     } else {
@@ -259,7 +271,16 @@ std::vector<Row> scoreSequence(const std::string& root, std::vector<Method>& met
       continue;
     }
     ++scored;
-    const cv::Mat left = seq.left(f), right = seq.right(f);
+    // Every file's header before any is decoded: an oversized one costs nothing.
+    const std::filesystem::path seq_root(seq.root);
+    std::vector<std::string> files = {(seq_root / "left" / seq.names[f]).string(),
+                                      (seq_root / "right" / seq.names[f]).string()};
+    if (seq.has_ground_truth) files.push_back((seq_root / "gt_disparity" / seq.names[f]).string());
+    for (const std::string& file : files) checkImagePixels(file, o.max_image_pixels);
+    const cv::Mat left = seq.left(f);
+    checkImagePixels(files[0], left, o.max_image_pixels);
+    const cv::Mat right = seq.right(f);
+    checkImagePixels(files[1], right, o.max_image_pixels);
     const cv::Mat gt = seq.has_ground_truth ? seq.groundTruth(f) : cv::Mat();
     const cv::Mat labels = seq.has_ground_truth ? classifyPixels(gt, left) : cv::Mat();
     for (size_t m = 0; m < methods.size(); ++m) {
@@ -458,7 +479,7 @@ int run(int argc, char** argv) {
   cv::setNumThreads(1);  // every method single-threaded, as the matcher is
   std::vector<Method> methods;
   const std::string* frame_name = nullptr;  // the frame being scored, for makePredictions
-  if (!o.predictions_dir.empty()) methods.push_back(makePredictions(o.predictions_dir, &frame_name));
+  if (!o.predictions_dir.empty()) methods.push_back(makePredictions(o.predictions_dir, &frame_name, o.max_image_pixels));
   const auto listed = std::remove(o.method_names.begin(), o.method_names.end(), "predictions");
   if (listed != o.method_names.end() && o.predictions_dir.empty())
     throw UsageError("method predictions needs --predictions DIR");

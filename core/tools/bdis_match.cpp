@@ -44,7 +44,8 @@ A frame that cannot be processed is reported on stderr and skipped; the exit
 code is then 1.
 
 Inputs: 8-bit mono, BGR or BGRA (alpha dropped) images of equal size and type,
-at least 32 px on each side. Pure black pixels are treated as outside the view.
+at least 32 px on each side and at most --max-image-pixels pixels. Pure black
+pixels are treated as outside the view.
 
 Outputs (all 16-bit single-channel PNG):
   disparity   round(d * 256), 0 = no estimate (estimates never round to 0)
@@ -65,6 +66,11 @@ options:
   --confidence-dir DIR     directory mode: also write DIR/<name> confidence
   --variance-dir DIR       directory mode: also write DIR/<name> variance;
                            turns on compute_variance
+  --max-image-pixels N     refuse images of more than N pixels (default
+                           16777216 = 4096x4096, as the nodelet's
+                           max_image_pixels); read from the file's header
+                           before decoding (PNG, JPEG, BMP, PNM), after
+                           decoding for other formats
   -h, --help               this text
 
 Exit code: 0 on success, 1 on an error or a failed frame, 2 on a bad command line.
@@ -76,6 +82,7 @@ struct Options {
   std::vector<std::string> overrides;
   std::string confidence, variance;                         // single pair
   std::string left_dir, right_dir, out_dir, confidence_dir, variance_dir;  // directory mode
+  std::size_t max_image_pixels = kDefaultMaxImagePixels;
   bool dir_mode() const { return !left_dir.empty() || !right_dir.empty() || !out_dir.empty(); }
 };
 
@@ -137,11 +144,18 @@ double density(const cv::Mat& disparity, const cv::Mat& left) {
 /// Reads, matches and writes one pair; returns the timed compute in ms.
 class PairRunner {
  public:
-  explicit PairRunner(const MatcherParams& params) : matcher_(params) {}
+  PairRunner(const MatcherParams& params, std::size_t max_image_pixels)
+      : matcher_(params), max_image_pixels_(max_image_pixels) {}
 
   double run(const std::string& left_path, const std::string& right_path, const Outputs& out,
              bool warm_up, double* frame_density) {
-    const cv::Mat left = readStereoImage(left_path), right = readStereoImage(right_path);
+    // Both headers first: an oversized image costs neither time nor memory.
+    checkImagePixels(left_path, max_image_pixels_);
+    checkImagePixels(right_path, max_image_pixels_);
+    const cv::Mat left = readStereoImage(left_path);
+    checkImagePixels(left_path, left, max_image_pixels_);
+    const cv::Mat right = readStereoImage(right_path);
+    checkImagePixels(right_path, right, max_image_pixels_);
     double ms = 0;
     try {
       if (warm_up) matcher_.compute(left, right, result_);
@@ -161,6 +175,7 @@ class PairRunner {
  private:
   Matcher matcher_;
   MatchResult result_;
+  std::size_t max_image_pixels_;
 };
 
 bool samePath(const std::string& a, const std::string& b) {
@@ -226,6 +241,8 @@ Options parseArgs(int argc, char** argv, bool* help) {
       o.confidence_dir = value();
     } else if (a == "--variance-dir") {
       o.variance_dir = value();
+    } else if (a == "--max-image-pixels") {
+      o.max_image_pixels = parseMaxImagePixels(value());
     } else if (a.size() > 1 && a[0] == '-') {
       throw UsageError("unknown option " + a);
     } else {
@@ -276,7 +293,7 @@ int runSingle(const Options& o, const MatcherParams& params) {
   for (const std::string& p : {out.disparity, out.confidence, out.variance}) {
     if (!p.empty()) checkWritableFile(p);
   }
-  PairRunner runner(params);
+  PairRunner runner(params, o.max_image_pixels);
   const double ms = runner.run(left, right, out, /*warm_up=*/true, nullptr);
   std::printf("time_ms=%.3f\n", ms);
   return 0;
@@ -295,7 +312,7 @@ int runDirectory(const Options& o, const MatcherParams& params) {
     if (!d.empty()) ensureWritableDir(d);
   }
 
-  PairRunner runner(params);
+  PairRunner runner(params, o.max_image_pixels);
   std::vector<double> times, densities;
   std::set<std::string> written;
   size_t failed = 0;

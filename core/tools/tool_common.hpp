@@ -3,8 +3,10 @@
 #pragma once
 
 #include <chrono>
-#include <stdexcept>
+#include <cstddef>
 #include <functional>
+#include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -39,6 +41,28 @@ MatcherParams resolveParams(const std::string& preset, const std::string& params
 /// Applies "name=value" to one field through bdis::bindParam (source "--set";
 /// the value read by ParamValue::fromText); throws UsageError naming the field.
 MatcherParams applyOverride(MatcherParams params, const std::string& assignment);
+
+/// Default of --max-image-pixels, the same as the nodelet's max_image_pixels:
+/// 4096 x 4096. An image above it is refused (bounded memory and time).
+constexpr std::size_t kDefaultMaxImagePixels = 4096u * 4096u;
+
+/// The value of --max-image-pixels: a whole number >= 1 (UsageError otherwise).
+std::size_t parseMaxImagePixels(const std::string& text);
+
+/// Width and height from the header of a PNG, JPEG, BMP or PNM (PGM, PPM)
+/// file, read without decoding the image (a few bytes; a JPEG's markers up to
+/// its frame header). nullopt for another format or a header that cannot be
+/// read: the decoder then says what is wrong.
+std::optional<cv::Size> imageSizeFromHeader(const std::string& path);
+
+/// Throws std::runtime_error when the image at `path` has more than
+/// `max_pixels` pixels as far as its header tells (imageSizeFromHeader), so
+/// that an oversized image is refused before it is decoded.
+void checkImagePixels(const std::string& path, std::size_t max_pixels);
+
+/// The same limit on an image already decoded (formats the header probe does
+/// not read).
+void checkImagePixels(const std::string& path, const cv::Mat& image, std::size_t max_pixels);
 
 /// Monotonic milliseconds.
 inline double nowMs() {

@@ -46,9 +46,13 @@ TEST(NoPairWarning, NamesTheTopicsAndTheLikelyCause) {
                        "no synchronised stereo pair for 4 s, although 5 left images (/s/left/image_rect), "
                        "0 right images (/s/right/image_rect)"))
       << silent;
-  EXPECT_TRUE(contains(silent, "an image topic is silent")) << silent;
+  EXPECT_TRUE(contains(silent, "Likely causes: the right image (/s/right/image_rect) is silent")) << silent;
+  EXPECT_FALSE(contains(silent, "left image (/s/left/image_rect) is silent")) << silent;
   EXPECT_FALSE(contains(silent, "camera_info missing")) << silent;
-  EXPECT_TRUE(contains(noPairWarning(quietInputs(5, 5, 0, 5), false, 3.0), "camera_info missing"));
+  const std::string no_info = noPairWarning(quietInputs(5, 5, 0, 5), false, 3.0);
+  EXPECT_TRUE(contains(no_info, "the left camera_info (/s/left/camera_info) is silent: camera_info missing"))
+      << no_info;
+  EXPECT_FALSE(contains(no_info, "right camera_info (/s/right/camera_info) is silent")) << no_info;
   EXPECT_TRUE(contains(noPairWarning(quietInputs(5, 5, 5, 5), false, 3.0), "try approximate_sync:=true"));
   EXPECT_TRUE(contains(noPairWarning(quietInputs(5, 5, 5, 5), true, 3.0), "even for approximate_sync"));
 }

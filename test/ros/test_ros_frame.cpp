@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <stdexcept>
+#include <string>
 #include <tuple>
 #include <vector>
 
@@ -129,6 +131,105 @@ TEST(RosFrameCamera, SaysWhatIsWrong) {
 TEST(RosFrameCamera, CameraInfoWithoutSizeIsAccepted) {
   bdis::StereoCamera cam;
   EXPECT_EQ(stereoCameraFromInfo(makeInfo(520, 32, 24, 0, 0, 0), makeInfo(520, 32, 24, -260, 0, 0), 64, 48, cam), "");
+}
+
+// Every value the outputs derive from the camera (DisparityImage f and T,
+// depth = f * T / d, the points) is finite for the camera models accepted;
+// P whose values would overflow them is refused, naming the entry.
+TEST(RosFrameCamera, ImplausiblyLargeFocalLengthOrBaselineIsRefused) {
+  bdis::StereoCamera cam;
+  // fx = fy = 1e200, baseline 0.5: f and f * T overflow float32.
+  std::string err = stereoCameraFromInfo(makeInfo(1e200, 32, 24, 0), makeInfo(1e200, 32, 24, -0.5e200),
+                                         64, 48, cam);
+  EXPECT_TRUE(contains(err, "left camera_info P[0] (fx) = 1e+200 px is not plausible (at most 1e+06 px)"))
+      << err;
+  sensor_msgs::CameraInfo tall = makeInfo(520, 32, 24, -260);
+  tall.P[5] = 1e9;
+  err = stereoCameraFromInfo(makeInfo(520, 32, 24, 0), tall, 64, 48, cam);
+  EXPECT_TRUE(contains(err, "right camera_info P[5] (fy) = 1e+09 px is not plausible")) << err;
+  // A normal fx with Tx = -1e300: a baseline of 2e297.
+  err = stereoCameraFromInfo(makeInfo(500, 32, 24, 0), makeInfo(500, 32, 24, -1e300), 64, 48, cam);
+  EXPECT_TRUE(contains(err, "right camera_info P[3] = -1e+300 gives baseline 2e+297 (-P[3] / fx), which "
+                            "is not plausible (at most 1e+06)"))
+      << err;
+  // At the bounds everything the outputs derive stays finite.
+  ASSERT_EQ(stereoCameraFromInfo(makeInfo(1e6, 32, 24, 0), makeInfo(1e6, 32, 24, -1e12), 64, 48, cam), "");
+  EXPECT_DOUBLE_EQ(cam.baseline, 1e6);
+  stereo_msgs::DisparityImage disparity_msg;
+  cv::Mat d(40, 40, CV_32FC1, cv::Scalar(1e-3f));
+  bdis_stereo::fillDisparityImage(d, cam, disparity_msg);
+  EXPECT_TRUE(std::isfinite(disparity_msg.f) && std::isfinite(disparity_msg.T));
+  EXPECT_TRUE(std::isfinite(disparity_msg.f * disparity_msg.T));
+  sensor_msgs::Image depth_msg;
+  bdis_stereo::fillDepthImage(d, cam, depth_msg);
+  const float* z = reinterpret_cast<const float*>(depth_msg.data.data());
+  EXPECT_TRUE(std::isfinite(z[0])) << z[0];
+  sensor_msgs::PointCloud2 cloud;
+  cv::Mat depth_buffer;
+  bdis_stereo::fillPointCloud(d, cam, cv::Mat(), false, nullptr, depth_buffer, cloud);
+  ASSERT_EQ(cloud.width, 1600u);
+  const float* xyz = reinterpret_cast<const float*>(cloud.data.data());
+  EXPECT_TRUE(std::isfinite(xyz[0]) && std::isfinite(xyz[1]) && std::isfinite(xyz[2]));
+}
+
+TEST(RosFrameCamera, CoreRefusesAnOverflowingFocalLengthTimesBaseline) {
+  const bdis::StereoCamera cam = bdis::StereoCamera::symmetric(1e200, 1e200, 32, 24, 1e200);
+  try {
+    cam.validate();
+    FAIL() << "validate accepted fx * baseline = inf";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_TRUE(contains(e.what(), "fx * baseline is not finite")) << e.what();
+  }
+}
+
+TEST(RosFrameCamera, NotARectifiedPairIsRefusedNamingTheEntry) {
+  bdis::StereoCamera cam;
+  const sensor_msgs::CameraInfo l = makeInfo(520, 32, 24, 0), r = makeInfo(520, 32, 24, -260);
+  sensor_msgs::CameraInfo bad = r;
+  bad.P[1] = 100;  // skew
+  std::string err = stereoCameraFromInfo(l, bad, 64, 48, cam);
+  EXPECT_TRUE(contains(err, "right camera_info P[1] (skew) = 100 but a rectified P has 0 there")) << err;
+  bad = l;
+  bad.P[8] = 5;
+  err = stereoCameraFromInfo(bad, r, 64, 48, cam);
+  EXPECT_TRUE(contains(err, "left camera_info P[8] (P[2][0]) = 5 but a rectified P has 0 there")) << err;
+  bad = r;
+  bad.P[7] = -100;  // Ty: the right camera above the left one
+  err = stereoCameraFromInfo(l, bad, 64, 48, cam);
+  EXPECT_TRUE(contains(err, "right camera_info P[7] (Ty) = -100 but a horizontal stereo pair has 0 there"))
+      << err;
+  bad = r;
+  bad.P[11] = 0.2;
+  err = stereoCameraFromInfo(l, bad, 64, 48, cam);
+  EXPECT_TRUE(contains(err, "right camera_info P[11] (Tz) = 0.2")) << err;
+  // Rounding as calibration files write it is accepted.
+  bad = r;
+  bad.P[1] = 1e-9;
+  bad.P[7] = 1e-7;
+  bad.P[8] = 1e-12;
+  EXPECT_EQ(stereoCameraFromInfo(l, bad, 64, 48, cam), "");
+}
+
+TEST(RosFrameConvert, EightBitTypeEncodingsAreMono8AndBgr8) {
+  sensor_msgs::Image grey = makeImage(40, 36, "8UC1", 1), colour = makeImage(40, 36, "8UC3", 3);
+  EXPECT_TRUE(bdis_stereo::isSupportedEncoding("8UC1"));
+  EXPECT_TRUE(bdis_stereo::isSupportedEncoding("8UC3"));
+  EXPECT_EQ(checkImage(grey, "left", 1 << 20), "");
+  EXPECT_EQ(checkImage(colour, "left", 1 << 20), "");
+  EXPECT_EQ(checkImagePair(grey, colour), "");
+  cv::Mat buffer;
+  cv::Mat view = bdis_stereo::matcherView(grey, buffer);
+  EXPECT_EQ(view.type(), CV_8UC1);
+  EXPECT_EQ(view.data, grey.data.data());  // the mono8 bytes, no copy
+  view = bdis_stereo::matcherView(colour, buffer);
+  EXPECT_EQ(view.type(), CV_8UC3);
+  EXPECT_EQ(view.data, colour.data.data());  // taken as bgr8, no copy
+  // 8UC3 with the wrong step is still caught; other types still refused.
+  sensor_msgs::Image short_step = colour;
+  short_step.step = 40;
+  EXPECT_TRUE(contains(checkImage(short_step, "left", 1 << 20), "inconsistent"));
+  const std::string err = checkImage(makeImage(40, 36, "8UC2", 2), "right", 1 << 20);
+  EXPECT_TRUE(contains(err, "8UC1 (as mono8) and 8UC3 (as bgr8)")) << err;
 }
 
 TEST(RosFrameConvert, MatcherViewWrapsOrConvertsToBgr) {

@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "bdis_stereo/evaluation.hpp"
+#include "image_headers.hpp"
 #include "tool_runner.hpp"
 
 namespace {
@@ -154,6 +155,35 @@ TEST_F(BdisEvalTest, SequenceWithoutGroundTruthReportsBorderStrips) {
   const std::string json = readFile(path("r.json"));
   EXPECT_NE(json.find("\"ground_truth\": false"), std::string::npos) << json;
   EXPECT_NE(json.find("\"border_outliers\""), std::string::npos) << json;
+}
+
+TEST_F(BdisEvalTest, OversizedImagesAreRefusedFromTheirHeaders) {
+  writeSequence();
+  // A header claiming 20000 x 20000 (the data is 64 x 48): refused unread.
+  bdis_test::claimSize(path("seq/right/000001.png"), 20000, 20000);
+  RunResult r = run({path("seq"), "--methods", "dis_fast"});
+  EXPECT_EQ(r.code(), 1);
+  EXPECT_NE(r.err.find(path("seq/right/000001.png") +
+                       " is 20000x20000 (400000000 pixels), more than --max-image-pixels 16777216"),
+            std::string::npos)
+      << r.err;
+  // The limit applies to the ground truth and to predictions too, and can be set.
+  writeSequence();
+  bdis::writeDisparityPng(path("pred/000000.png"), cv::Mat(kHeight, kWidth, CV_32FC1, cv::Scalar(7.f)));
+  r = run({path("seq"), "--predictions", path("pred"), "--max-image-pixels", "3072"});
+  EXPECT_EQ(r.code(), 0) << r.err;  // 64 x 48 = 3072
+  bdis_test::claimSize(path("seq/gt_disparity/000000.png"), 64, 49);
+  r = run({path("seq"), "--predictions", path("pred"), "--max-image-pixels", "3072"});
+  EXPECT_EQ(r.code(), 1);
+  EXPECT_NE(r.err.find(path("seq/gt_disparity/000000.png") + " is 64x49"), std::string::npos) << r.err;
+  writeSequence();
+  bdis_test::claimSize(path("pred/000000.png"), 64, 49);
+  r = run({path("seq"), "--predictions", path("pred"), "--max-image-pixels", "3072"});
+  EXPECT_EQ(r.code(), 1);
+  EXPECT_NE(r.err.find(path("pred/000000.png") + " is 64x49"), std::string::npos) << r.err;
+  r = run({path("seq"), "--max-image-pixels", "0"});
+  EXPECT_EQ(r.code(), 2);
+  EXPECT_NE(r.err.find("--max-image-pixels needs a whole number >= 1"), std::string::npos) << r.err;
 }
 
 TEST_F(BdisEvalTest, BadOptionsFailBeforeTheEvaluation) {

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -21,6 +22,7 @@
 
 #include "bdis_stereo/evaluation.hpp"
 #include "test_images.hpp"
+#include "image_headers.hpp"
 #include "tool_runner.hpp"
 
 namespace {
@@ -313,6 +315,8 @@ TEST_F(BdisMatchTest, BadParamsFile) {
   EXPECT_EQ(std::count(g.err.begin(), g.err.end(), '\n'), 1) << g.err;  // one line
   std::ofstream(path("empty.yaml")) << "";
   expectFailure(run({l, r, d, "--params", path("empty.yaml")}), path("empty.yaml") + " is empty");
+  std::ofstream(path("nan.yaml")) << "iterations: .nan\n";
+  expectFailure(run({l, r, d, "--params", path("nan.yaml")}), "iterations = nan is not a finite number");
   std::ofstream(path("fraction.yaml")) << "iterations: 2.5\n";
   expectFailure(run({l, r, d, "--params", path("fraction.yaml")}), "iterations = 2.5 must be a whole number");
   EXPECT_FALSE(fs::exists(d));
@@ -335,6 +339,57 @@ TEST_F(BdisMatchTest, UnwritableOutput) {
   expectFailure(run({"--left-dir", path("left"), "--right-dir", path("right"), "--out-dir",
                      path("l.png/out")}),
                 "cannot create output directory");
+}
+
+// An image above --max-image-pixels (default 4096 x 4096, as the nodelet) is
+// refused from its header: the files below claim 20000 x 20000 in a header
+// patched into a small image, so only a header probe gives this message (a
+// decoder would fail on the data, or first allocate 400 megapixels).
+TEST_F(BdisMatchTest, OversizedImageIsRefusedFromItsHeader) {
+  writePair(path("l.png"), path("r.png"));
+  const cv::Mat small(48, 64, CV_8UC1, cv::Scalar(100));
+  for (const std::string ext : {".png", ".jpg", ".bmp", ".pgm"}) {
+    const std::string big = path("big" + ext);
+    ASSERT_TRUE(cv::imwrite(big, small));
+    bdis_test::claimSize(big, 20000, 20000);
+    const auto t0 = std::chrono::steady_clock::now();
+    const RunResult r = run({big, path("r.png"), path("d.png")});
+    expectFailure(r, big + " is 20000x20000 (400000000 pixels), more than --max-image-pixels 16777216 "
+                      "(4096x4096): downscale the images or raise --max-image-pixels");
+    EXPECT_EQ(r.code(), 1);
+    EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(5)) << ext;
+    // The right image is probed before the left one is decoded, too.
+    expectFailure(run({path("l.png"), big, path("d.png")}), big + " is 20000x20000");
+  }
+  EXPECT_FALSE(fs::exists(path("d.png")));
+  // A valid image just above the default: 4100 x 4100 = 16810000 pixels.
+  ASSERT_TRUE(cv::imwrite(path("valid_big.png"), cv::Mat(4100, 4100, CV_8UC1, cv::Scalar(7))));
+  expectFailure(run({path("valid_big.png"), path("valid_big.png"), path("d.png")}),
+                "is 4100x4100 (16810000 pixels), more than --max-image-pixels 16777216");
+  // Directory mode: the frame is reported and skipped.
+  fs::create_directories(path("left"));
+  fs::create_directories(path("right"));
+  fs::copy_file(path("big.png"), path("left/a.png"));
+  fs::copy_file(path("r.png"), path("right/a.png"));
+  expectFailure(run({"--left-dir", path("left"), "--right-dir", path("right"), "--out-dir", path("out")}),
+                "frame a.png failed: " + path("left/a.png") + " is 20000x20000");
+}
+
+TEST_F(BdisMatchTest, MaxImagePixelsOption) {
+  writePair(path("l.png"), path("r.png"));  // 160 x 128 = 20480 pixels
+  const std::string l = path("l.png"), r = path("r.png"), d = path("d.png");
+  expectFailure(run({l, r, d, "--max-image-pixels", "20479"}),
+                l + " is 160x128 (20480 pixels), more than --max-image-pixels 20479");
+  EXPECT_FALSE(fs::exists(d));
+  const RunResult ok = run({l, r, d, "--max-image-pixels", "20480"});
+  ASSERT_EQ(ok.code(), 0) << ok.err;
+  EXPECT_TRUE(fs::exists(d));
+  for (const char* bad : {"0", "-5", "1e9", "x"}) {
+    const RunResult res = run({l, r, d, "--max-image-pixels", bad});
+    expectFailure(res, "--max-image-pixels needs");
+    EXPECT_EQ(res.code(), 2) << bad;
+  }
+  EXPECT_NE(run({"--help"}).out.find("--max-image-pixels N"), std::string::npos);
 }
 
 TEST_F(BdisMatchTest, BadCommandLine) {
