@@ -16,6 +16,7 @@
 #include <tf2/LinearMath/Matrix3x3.h>
 #include <tf2/LinearMath/Quaternion.h>
 
+#include "bdis_stereo/image_header.hpp"
 #include "bdis_stereo/matcher.hpp"
 
 namespace bdis_stereo {
@@ -120,88 +121,6 @@ std::string checkRectifiedForm(const sensor_msgs::CameraInfo& info, const char* 
   return "";
 }
 
-uint32_t bigEndian16(const uint8_t* p) { return (static_cast<uint32_t>(p[0]) << 8) | p[1]; }
-uint32_t bigEndian32(const uint8_t* p) { return (bigEndian16(p) << 16) | bigEndian16(p + 2); }
-
-// JPEG: the markers from SOI up to the first scan (SOS), the frame header
-// (SOFn) among them, then an EOI after the scan. 0xFF inside the entropy-coded
-// data is always followed by 0x00 or a restart marker, so FF D9 there is EOI.
-std::string readJpegHeader(const uint8_t* data, std::size_t size, CompressedImageHeader& header) {
-  header.format = CompressedImageHeader::Format::Jpeg;
-  bool have_frame = false;
-  std::size_t pos = 2;  // after SOI
-  for (;;) {
-    if (pos >= size || data[pos] != 0xFF) return "is a corrupt JPEG (no marker where one must be)";
-    while (pos < size && data[pos] == 0xFF) ++pos;  // fill bytes
-    if (pos >= size) return "is a truncated JPEG (it ends inside its header)";
-    const uint8_t marker = data[pos++];
-    if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD8)) continue;  // no length
-    if (marker == 0xD9) return "is a corrupt JPEG (it ends before its first scan)";
-    if (pos + 2 > size) return "is a truncated JPEG (it ends inside its header)";
-    const std::size_t length = bigEndian16(data + pos);
-    if (length < 2 || pos + length > size) return "is a truncated JPEG (it ends inside its header)";
-    const bool frame_header = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
-    if (frame_header) {
-      if (length < 8) return "is a corrupt JPEG (its frame header is too short)";
-      header.bit_depth = data[pos + 2];
-      header.height = static_cast<int>(bigEndian16(data + pos + 3));
-      header.width = static_cast<int>(bigEndian16(data + pos + 5));
-      const int components = data[pos + 7];
-      if (components != 1 && components != 3 && components != 4) {
-        return "is a JPEG with " + std::to_string(components) + " components (1 grey, 3 colour or 4 CMYK expected)";
-      }
-      header.channels = components == 1 ? 1 : 3;
-      have_frame = true;
-    }
-    if (marker == 0xDA) {  // start of scan: entropy-coded data follows
-      if (!have_frame) return "is a corrupt JPEG (a scan before its frame header)";
-      pos += length;
-      break;
-    }
-    pos += length;
-  }
-  for (std::size_t i = size; i >= pos + 2; --i) {
-    if (data[i - 2] == 0xFF && data[i - 1] == 0xD9) return "";
-  }
-  return "is a truncated JPEG (no end-of-image marker)";
-}
-
-// PNG: the signature, IHDR first, then chunks (length, type, data, CRC) up to IEND.
-std::string readPngHeader(const uint8_t* data, std::size_t size, CompressedImageHeader& header) {
-  header.format = CompressedImageHeader::Format::Png;
-  if (size < 8 + 25 || bigEndian32(data + 8) != 13 || std::memcmp(data + 12, "IHDR", 4) != 0) {
-    return "is a corrupt or truncated PNG (no IHDR chunk)";
-  }
-  const uint64_t width = bigEndian32(data + 16), height = bigEndian32(data + 20);
-  if (width > static_cast<uint64_t>(std::numeric_limits<int>::max()) ||
-      height > static_cast<uint64_t>(std::numeric_limits<int>::max())) {
-    return "is a corrupt PNG (size " + std::to_string(width) + "x" + std::to_string(height) + ")";
-  }
-  header.width = static_cast<int>(width);
-  header.height = static_cast<int>(height);
-  header.bit_depth = data[24];
-  switch (data[25]) {  // colour type
-    case 0:  // grey
-    case 4:  // grey and alpha
-      header.channels = 1;
-      break;
-    case 2:  // RGB
-    case 3:  // palette
-    case 6:  // RGBA
-      header.channels = 3;
-      break;
-    default:
-      return "is a corrupt PNG (colour type " + std::to_string(data[25]) + ")";
-  }
-  std::size_t pos = 8;
-  while (pos + 12 <= size) {
-    const uint64_t length = bigEndian32(data + pos);
-    if (std::memcmp(data + pos + 4, "IEND", 4) == 0) return "";
-    pos += 12 + length;
-  }
-  return "is a truncated PNG (no IEND chunk)";
-}
-
 // "" when Ty = P[7] and Tz = P[11] are 0 in both cameras (a horizontal pair,
 // rectified to one image plane), up to a fraction of the baseline.
 std::string checkTranslation(const sensor_msgs::CameraInfo& info, const char* side, double baseline) {
@@ -268,24 +187,20 @@ std::string checkImage(const sensor_msgs::Image& image, const char* side, std::s
   return "";
 }
 
-std::string readCompressedImageHeader(const uint8_t* data, std::size_t size, CompressedImageHeader& header) {
-  static const uint8_t kPngSignature[8] = {0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A};
-  header = CompressedImageHeader();
-  if (size == 0) return "is empty";
-  if (size >= 2 && data[0] == 0xFF && data[1] == 0xD8) return readJpegHeader(data, size, header);
-  if (size >= 8 && std::memcmp(data, kPngSignature, 8) == 0) return readPngHeader(data, size, header);
-  return "is neither a JPEG nor a PNG";
-}
-
 std::string decodeCompressedImage(const sensor_msgs::CompressedImage& msg, const char* side, std::size_t max_pixels,
                                   sensor_msgs::Image& image) {
   // The messages are composed only on failure: no strings are built for a good frame.
   const auto what = [&msg, side] { return std::string(side) + " compressed image (format '" + msg.format + "')"; };
   if (msg.data.size() > static_cast<std::size_t>(std::numeric_limits<int>::max())) return what() + " is too large";
-  CompressedImageHeader h;
-  const std::string header_error = readCompressedImageHeader(msg.data.data(), msg.data.size(), h);
+  bdis::ImageHeader h;
+  if (msg.data.empty()) return what() + " is empty: the frame cannot be decoded";
+  if (!bdis::detectImageFormat(msg.data.data(), msg.data.size(), h.format) ||
+      (h.format != bdis::ImageHeader::Format::Jpeg && h.format != bdis::ImageHeader::Format::Png)) {
+    return what() + " is neither a JPEG nor a PNG: the frame cannot be decoded";
+  }
+  const std::string header_error = bdis::readImageHeader(msg.data.data(), msg.data.size(), h);
   if (!header_error.empty()) return what() + " " + header_error + ": the frame cannot be decoded";
-  const char* kind = h.format == CompressedImageHeader::Format::Jpeg ? "JPEG" : "PNG";
+  const char* kind = bdis::formatName(h.format);
   if (h.bit_depth > 8) {
     return what() + " is a " + std::to_string(h.bit_depth) + "-bit " + kind +
            ": supported are 8-bit JPEG and PNG (mono8, bgr8 or rgb8 images compressed); convert 16-bit "

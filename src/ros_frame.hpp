@@ -35,21 +35,6 @@ std::string checkImage(const sensor_msgs::Image& image, const char* side, std::s
 /// Checks that the two images can be matched as a pair (equal sizes).
 std::string checkImagePair(const sensor_msgs::Image& left, const sensor_msgs::Image& right);
 
-/// What a compressed image's own header says, read without decoding it.
-struct CompressedImageHeader {
-  enum class Format { Jpeg, Png };
-  Format format = Format::Jpeg;
-  int width = 0, height = 0;
-  int channels = 0;   ///< decoded as 1 (grey; a PNG's alpha dropped) or 3 (colour; a palette expanded)
-  int bit_depth = 0;  ///< bits per sample: a JPEG's precision, a PNG's bit depth
-};
-
-/// Reads a JPEG's frame header (SOF) or a PNG's IHDR from `data`, and checks
-/// that the data is complete: a JPEG's end-of-image marker after its scan, a
-/// PNG's IEND chunk. (libjpeg decodes a truncated JPEG with a grey bottom and
-/// a mere warning.) Returns "" or what is wrong.
-std::string readCompressedImageHeader(const uint8_t* data, std::size_t size, CompressedImageHeader& header);
-
 /// Decodes a sensor_msgs/CompressedImage (JPEG or PNG, 8 bits per sample,
 /// told apart by their first bytes, whatever `format` says) with OpenCV into
 /// `image`: mono8 for grey, bgr8 for colour, msg's header. The size is

@@ -11,10 +11,13 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <iterator>
 #include <system_error>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "bdis_stereo/image_header.hpp"
 
 namespace bdis {
 namespace tools {
@@ -102,68 +105,6 @@ std::size_t parseMaxImagePixels(const std::string& text) {
 
 namespace {
 
-uint32_t bigEndian(const unsigned char* p, int bytes) {
-  uint32_t v = 0;
-  for (int i = 0; i < bytes; ++i) v = (v << 8) | p[i];
-  return v;
-}
-
-uint32_t littleEndian(const unsigned char* p, int bytes) {
-  uint32_t v = 0;
-  for (int i = bytes - 1; i >= 0; --i) v = (v << 8) | p[i];
-  return v;
-}
-
-// JPEG: the size is in the frame header (SOF0..SOF15 but DHT, JPG and DAC),
-// after any APPn/COM segments; each segment is skipped by its length.
-std::optional<cv::Size> jpegSize(std::istream& in) {
-  for (int segments = 0; segments < 1000 && in; ++segments) {
-    int byte = in.get();
-    if (byte != 0xFF) return std::nullopt;
-    while (byte == 0xFF) byte = in.get();  // fill bytes
-    if (byte == EOF) return std::nullopt;
-    const int marker = byte;
-    if (marker == 0xD8 || marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7)) continue;  // no length
-    if (marker == 0xD9 || marker == 0xDA) return std::nullopt;  // end of image, start of scan
-    unsigned char length_bytes[2];
-    if (!in.read(reinterpret_cast<char*>(length_bytes), 2)) return std::nullopt;
-    const uint32_t length = bigEndian(length_bytes, 2);
-    if (length < 2) return std::nullopt;
-    const bool frame_header = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 &&
-                              marker != 0xCC;
-    if (frame_header) {
-      unsigned char sof[5];  // precision, height, width
-      if (length < 7 || !in.read(reinterpret_cast<char*>(sof), 5)) return std::nullopt;
-      const uint32_t height = bigEndian(sof + 1, 2), width = bigEndian(sof + 3, 2);
-      if (width == 0 || height == 0) return std::nullopt;  // height given later (DNL): rare
-      return cv::Size(static_cast<int>(width), static_cast<int>(height));
-    }
-    in.seekg(length - 2, std::ios::cur);
-  }
-  return std::nullopt;
-}
-
-// PNM (P1..P6): magic, then width and height as text, '#' comments between.
-std::optional<cv::Size> pnmSize(std::istream& in) {
-  long long values[2] = {0, 0};
-  for (long long& value : values) {
-    int c = in.get();
-    while (c != EOF && (std::isspace(c) || c == '#')) {
-      if (c == '#') {
-        while (c != EOF && c != '\n') c = in.get();
-      }
-      c = in.get();
-    }
-    if (c == EOF || !std::isdigit(c)) return std::nullopt;
-    while (c != EOF && std::isdigit(c)) {
-      value = value * 10 + (c - '0');
-      if (value > (1LL << 31)) return std::nullopt;
-      c = in.get();
-    }
-  }
-  return cv::Size(static_cast<int>(values[0]), static_cast<int>(values[1]));
-}
-
 std::string pixelsText(std::size_t pixels) {
   // 16777216 (4096x4096): the square that many pixels make, when there is one.
   const auto side = static_cast<std::size_t>(std::llround(std::sqrt(static_cast<double>(pixels))));
@@ -181,43 +122,14 @@ void refuseAbove(const std::string& path, std::size_t width, std::size_t height,
 
 }  // namespace
 
-std::optional<cv::Size> imageSizeFromHeader(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  unsigned char head[26] = {};
-  if (!in.read(reinterpret_cast<char*>(head), 2)) return std::nullopt;
-  if (head[0] == 0xFF && head[1] == 0xD8) {
-    in.seekg(0);
-    return jpegSize(in);
-  }
-  if (head[0] == 'P' && head[1] >= '1' && head[1] <= '6') return pnmSize(in);
-  in.read(reinterpret_cast<char*>(head + 2), sizeof(head) - 2);
-  const std::streamsize got = 2 + in.gcount();
-  static const unsigned char kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
-  if (got >= 24 && std::equal(kPngSignature, kPngSignature + 8, head) &&
-      std::string(reinterpret_cast<const char*>(head + 12), 4) == "IHDR") {
-    return cv::Size(static_cast<int>(bigEndian(head + 16, 4) & 0x7FFFFFFF),
-                    static_cast<int>(bigEndian(head + 20, 4) & 0x7FFFFFFF));
-  }
-  if (got >= 26 && head[0] == 'B' && head[1] == 'M') {
-    const uint32_t info_size = littleEndian(head + 14, 4);
-    if (info_size == 12) {  // BITMAPCOREHEADER: 16-bit sizes
-      return cv::Size(static_cast<int>(littleEndian(head + 18, 2)),
-                      static_cast<int>(littleEndian(head + 20, 2)));
-    }
-    // BITMAPINFOHEADER and later: signed 32-bit; a negative height is top-down.
-    const int32_t width = static_cast<int32_t>(littleEndian(head + 18, 4));
-    const int32_t height = static_cast<int32_t>(littleEndian(head + 22, 4));
-    if (width <= 0 || height == INT32_MIN) return std::nullopt;
-    return cv::Size(width, height < 0 ? -height : height);
-  }
-  return std::nullopt;
-}
-
 void checkImagePixels(const std::string& path, std::size_t max_pixels) {
-  if (const std::optional<cv::Size> size = imageSizeFromHeader(path)) {
-    refuseAbove(path, static_cast<std::size_t>(size->width), static_cast<std::size_t>(size->height),
-                max_pixels);
-  }
+  std::ifstream in(path, std::ios::binary);
+  const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ImageHeader header;
+  if (!detectImageFormat(bytes.data(), bytes.size(), header.format)) return;  // the decoder decides
+  const std::string error = readImageHeader(bytes.data(), bytes.size(), header);
+  if (!error.empty()) throw std::runtime_error(path + " " + error);
+  refuseAbove(path, static_cast<std::size_t>(header.width), static_cast<std::size_t>(header.height), max_pixels);
 }
 
 void checkImagePixels(const std::string& path, const cv::Mat& image, std::size_t max_pixels) {

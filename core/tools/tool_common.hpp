@@ -5,7 +5,6 @@
 #include <chrono>
 #include <cstddef>
 #include <functional>
-#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -49,15 +48,10 @@ constexpr std::size_t kDefaultMaxImagePixels = 4096u * 4096u;
 /// The value of --max-image-pixels: a whole number >= 1 (UsageError otherwise).
 std::size_t parseMaxImagePixels(const std::string& text);
 
-/// Width and height from the header of a PNG, JPEG, BMP or PNM (PGM, PPM)
-/// file, read without decoding the image (a few bytes; a JPEG's markers up to
-/// its frame header). nullopt for another format or a header that cannot be
-/// read: the decoder then says what is wrong.
-std::optional<cv::Size> imageSizeFromHeader(const std::string& path);
-
-/// Throws std::runtime_error when the image at `path` has more than
-/// `max_pixels` pixels as far as its header tells (imageSizeFromHeader), so
-/// that an oversized image is refused before it is decoded.
+/// Throws std::runtime_error when the image at `path` (a JPEG, PNG, BMP or
+/// PNM; other formats are left to the decoder) has more than `max_pixels`
+/// pixels as far as its header tells, or is a truncated or corrupt JPEG or
+/// PNG (readImageHeader), so that it is refused before it is decoded.
 void checkImagePixels(const std::string& path, std::size_t max_pixels);
 
 /// The same limit on an image already decoded (formats the header probe does

@@ -499,9 +499,7 @@ TEST(RosFrameTransform, InvalidRotationIsRefusedAndLeavesTheTransform) {
 
 namespace {
 
-using bdis_stereo::CompressedImageHeader;
 using bdis_stereo::decodeCompressedImage;
-using bdis_stereo::readCompressedImageHeader;
 
 // A textured image: its JPEG has detail to lose.
 cv::Mat texture(int w, int h, int type) {
@@ -578,21 +576,6 @@ TEST(RosFrameDecode, DecodesIntoTheSameBufferFrameAfterFrame) {
     EXPECT_EQ(out.data.data(), buffer) << "reallocated on frame " << i;
     EXPECT_EQ(cv::norm(over(out, CV_8UC3), image, cv::NORM_INF), 0.0);
   }
-}
-
-TEST(RosFrameDecode, ReadsTheHeaderWithoutDecoding) {
-  CompressedImageHeader h;
-  const sensor_msgs::CompressedImage jpeg = compressed(texture(64, 48, CV_8UC1), ".jpg");
-  ASSERT_EQ(readCompressedImageHeader(jpeg.data.data(), jpeg.data.size(), h), "");
-  EXPECT_EQ(h.format, CompressedImageHeader::Format::Jpeg);
-  EXPECT_EQ(std::make_tuple(h.width, h.height, h.channels, h.bit_depth), std::make_tuple(64, 48, 1, 8));
-  const sensor_msgs::CompressedImage rgba = compressed(texture(40, 36, CV_8UC4), ".png");
-  ASSERT_EQ(readCompressedImageHeader(rgba.data.data(), rgba.data.size(), h), "");
-  EXPECT_EQ(h.format, CompressedImageHeader::Format::Png);
-  EXPECT_EQ(std::make_tuple(h.width, h.height, h.channels, h.bit_depth), std::make_tuple(40, 36, 3, 8));
-  const sensor_msgs::CompressedImage deep = compressed(cv::Mat(36, 40, CV_16UC1, cv::Scalar(1000)), ".png");
-  ASSERT_EQ(readCompressedImageHeader(deep.data.data(), deep.data.size(), h), "");
-  EXPECT_EQ(std::make_tuple(h.channels, h.bit_depth), std::make_tuple(1, 16));
 }
 
 TEST(RosFrameDecode, BadDataIsRefusedWithTheReason) {
