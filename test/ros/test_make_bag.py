@@ -77,8 +77,6 @@ class TestMakeBag(unittest.TestCase):
             self.assert_refused("--ns %r is not a legal ROS namespace" % ns, bag, "--ns", ns)
         self.assert_refused("--left-frame '/cam' is not a legal tf frame id", bag, "--left-frame", "/cam")
         self.assert_refused("--right-frame 'a b' is not a legal tf frame id", bag, "--right-frame", "a b")
-        self.assert_refused("--left-frame and --right-frame are both 'cam'", bag, "--left-frame", "cam",
-                            "--right-frame", "cam")
         out = self.run_tool(bag, "--ns", "endoscope/stereo")
         self.assertEqual(out.returncode, 0, out.stderr)
         with rosbag.Bag(bag) as written:
@@ -138,6 +136,19 @@ class TestMakeBag(unittest.TestCase):
         umask = os.umask(0)
         os.umask(umask)
         self.assertEqual(os.stat(bag).st_mode & 0o777, 0o666 & ~umask)
+
+    def test_one_frame_for_both_cameras_writes_no_rig_transform(self):
+        # stereo_image_proc wants one frame id for both cameras (scripts/bench_node.sh).
+        import rosbag
+        bag = os.path.join(self.out_dir, "one_frame.bag")
+        out = self.run_tool(bag, "--right-frame", "stereo_left_optical")
+        self.assertEqual(out.returncode, 0, out.stderr)
+        with rosbag.Bag(bag) as b:
+            topics = b.get_type_and_topic_info().topics
+            self.assertNotIn("/tf_static", topics)
+            self.assertEqual(topics["/stereo/right/camera_info"].message_count, FRAMES)
+            frames = {m.header.frame_id for _, m, _ in b.read_messages(topics=["/stereo/right/camera_info"])}
+        self.assertEqual(frames, {"stereo_left_optical"})
 
 
 class _Capture:
