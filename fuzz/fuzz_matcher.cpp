@@ -280,7 +280,8 @@ bdis::StereoCamera decodeCamera(FuzzedDataProvider& in, bool& valid) {
     if (in.ConsumeIntegralInRange<int>(0, 3) == 3) f = std::numeric_limits<double>::quiet_NaN();
     valid = std::isfinite(cam.fx) && std::isfinite(cam.fy) && std::isfinite(cam.cx) &&
             std::isfinite(cam.cy) && std::isfinite(cam.cx_right) &&
-            std::isfinite(cam.baseline) && cam.fx > 0 && cam.fy > 0 && cam.baseline > 0;
+            std::isfinite(cam.baseline) && cam.fx > 0 && cam.fy > 0 && cam.baseline > 0 &&
+            std::isfinite(cam.fx * cam.baseline);  // each finite, the product may still overflow
   }
   return cam;
 }
