@@ -224,6 +224,24 @@ inline void bsplineWeights(double t, double w[4], double dw[4]) {
   dw[3] = t2 / 2.0;
 }
 
+inline int clampi(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
+
+// Noise of wavelength `lambda` (m) at texture coordinates (u, v) (m); the
+// derivatives come back per metre. With period_v > 0 the lattice is stretched
+// slightly in v so that it wraps exactly around the tube.
+inline NoiseValue noiseAt(double u, double v, double lambda, uint32_t seed, double period_v) {
+  double su = 1.0 / lambda, sv = su;
+  int period = 0;
+  if (period_v > 0) {
+    period = std::max(1, static_cast<int>(std::lround(period_v / lambda)));
+    sv = period / period_v;
+  }
+  NoiseValue n = gradientNoise(u * su, v * sv, seed, period);
+  n.dx *= su;
+  n.dy *= sv;
+  return n;
+}
+
 }  // namespace detail
 }  // namespace synth
 }  // namespace bdis
