@@ -196,6 +196,14 @@ TEST(ShippedConfig, ReadmeNodeTableIsTheNodeParameterTable) {
   EXPECT_EQ(table, expected) << "README.md's node parameter table should read:\n" << joined(expected);
 }
 
+// The README is for users; development material belongs in docs/.
+TEST(ShippedConfig, ReadmeStaysUnder20KB) {
+  std::size_t bytes = 0;
+  for (const std::string& line : lines(packageFile("README.md"))) bytes += line.size() + 1;
+  EXPECT_GT(bytes, 1000u);
+  EXPECT_LT(bytes, 20000u) << "README.md has " << bytes << " bytes: move development material to docs/";
+}
+
 // Launch arguments that set a node parameter default to the node's default.
 TEST(ShippedConfig, LaunchArgumentsDefaultToTheNodesDefaults) {
   const bdis_stereo::NodeParams defaults;
