@@ -147,6 +147,9 @@ fi
 [ -f "$RESULTS_DIR/bdis_stereo/rosunit-demo.xml" ] || { status=1; log "the demo tests wrote no results"; }
 log "test artifacts (rviz screenshot): $ARTIFACTS_DIR"
 
+# The core alone: plain CMake, no ROS in the environment, its unit tests by ctest.
+"$REPO_DIR/scripts/test_core_alone.sh" "$RESULTS_DIR" || status=1
+
 # The install space (catkin_make install) in a clean environment: the tools,
 # the launch files, a downstream CMake project, the nodelet on a bag.
 "$REPO_DIR/scripts/test_install.sh" "$RESULTS_DIR" || status=1
