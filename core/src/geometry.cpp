@@ -86,6 +86,24 @@ StereoCamera StereoCamera::subsampled(int stride) const {
   return c;
 }
 
+namespace {
+
+// Every stride-th pixel of every stride-th row, `bytes` per pixel. With the
+// size known at compile time the copy of a pixel is a load and a store, not a
+// call to memcpy (a 1920x1080 cloud at stride 3 keeps 230,000 pixels).
+template <std::size_t kBytes>
+void subsampleFixed(const cv::Mat& source, int stride, std::size_t bytes, cv::Mat& out) {
+  const std::size_t size = kBytes != 0 ? kBytes : bytes;
+  const std::size_t step = size * static_cast<std::size_t>(stride);
+  for (int y = 0; y < out.rows; ++y) {
+    const uint8_t* from = source.ptr<uint8_t>(y * stride);
+    uint8_t* to = out.ptr<uint8_t>(y);
+    for (int x = 0; x < out.cols; ++x, from += step, to += size) std::memcpy(to, from, kBytes != 0 ? kBytes : size);
+  }
+}
+
+}  // namespace
+
 void subsample(const cv::Mat& image, int stride, cv::Mat& out) {
   if (stride < 1) throw std::invalid_argument("stride must be >= 1, got " + std::to_string(stride));
   if (stride == 1) {
@@ -97,11 +115,17 @@ void subsample(const cv::Mat& image, int stride, cv::Mat& out) {
   const cv::Mat source = image;
   out.create((source.rows + stride - 1) / stride, (source.cols + stride - 1) / stride, source.type());
   const std::size_t bytes = source.elemSize();
-  const std::size_t step = bytes * static_cast<std::size_t>(stride);
-  for (int y = 0; y < out.rows; ++y) {
-    const uint8_t* from = source.ptr<uint8_t>(y * stride);
-    uint8_t* to = out.ptr<uint8_t>(y);
-    for (int x = 0; x < out.cols; ++x, from += step, to += bytes) std::memcpy(to, from, bytes);
+  switch (bytes) {
+    case 1:
+      return subsampleFixed<1>(source, stride, bytes, out);
+    case 3:  // BGR
+      return subsampleFixed<3>(source, stride, bytes, out);
+    case 4:  // depth, disparity
+      return subsampleFixed<4>(source, stride, bytes, out);
+    case 12:  // points
+      return subsampleFixed<12>(source, stride, bytes, out);
+    default:
+      return subsampleFixed<0>(source, stride, bytes, out);
   }
 }
 

@@ -360,6 +360,19 @@ TEST(GeometryCloud, SubsampledDepthGivesTheFullImagesPointsAtTheKeptPixels) {
       }
     }
   }
+  // Every element size (the common ones have a loop of their own): the kept pixels exactly.
+  for (const int type : {CV_8UC1, CV_8UC3, CV_32FC1, CV_32FC3, CV_16UC1, CV_64FC2}) {
+    cv::Mat image(11, 17, type), small;
+    cv::randu(image, 0, 255);
+    bdis::subsample(image, 3, small);
+    ASSERT_EQ(small.size(), cv::Size(6, 4));
+    for (int y = 0; y < small.rows; ++y) {
+      for (int x = 0; x < small.cols; ++x) {
+        EXPECT_EQ(std::memcmp(small.ptr(y, x), image.ptr(3 * y, 3 * x), image.elemSize()), 0)
+            << "type " << type << " at " << x << ", " << y;
+      }
+    }
+  }
   cv::Mat out;
   EXPECT_THROW(bdis::subsample(depth, 0, out), std::invalid_argument);
   EXPECT_THROW(camera.subsampled(0), std::invalid_argument);
