@@ -13,10 +13,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -299,6 +301,25 @@ class TempPath {
 
 inline bool contains(const std::string& haystack, const std::string& needle) {
   return haystack.find(needle) != std::string::npos;
+}
+
+/// Disparities over the whole range a consumer must handle: estimates in
+/// [0, 80), no estimate (-1), `at_infinity` (cx - cx_right of the test's
+/// camera: depth at or beyond infinity) and NaN, each kind at random.
+inline cv::Mat mixedDisparity(int rows, int cols, uint64_t seed, float at_infinity) {
+  cv::RNG rng(seed);
+  cv::Mat d(rows, cols, CV_32FC1);
+  for (int y = 0; y < rows; ++y) {
+    for (int x = 0; x < cols; ++x) {
+      const int kind = rng.uniform(0, 10);
+      float v = rng.uniform(0.f, 80.f);
+      if (kind == 0) v = -1.f;  // bdis::kNoDisparity
+      if (kind == 1) v = at_infinity;
+      if (kind == 2) v = std::numeric_limits<float>::quiet_NaN();
+      d.at<float>(y, x) = v;
+    }
+  }
+  return d;
 }
 
 }  // namespace bdis_test

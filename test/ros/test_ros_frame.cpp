@@ -17,6 +17,7 @@
 
 #include "../../src/ros_frame.hpp"
 #include "bdis_stereo/matcher.hpp"
+#include "../../core/test/test_images.hpp"
 
 using bdis_stereo::checkImage;
 using bdis_stereo::checkImagePair;
@@ -361,22 +362,9 @@ TEST(RosFrameConvert, DenseCloudKeepsOnlyValidPointsWithoutRgbForMono) {
 
 namespace {
 
-// Disparities over the whole range: estimates, no estimate, at and beyond
-// infinity (d <= cx - cx_right = 2), NaN.
+// Disparities over the whole range; 2 px = cx - cx_right is at infinity.
 cv::Mat randomDisparity(int rows, int cols, uint64_t seed) {
-  cv::RNG rng(seed);
-  cv::Mat d(rows, cols, CV_32FC1);
-  for (int y = 0; y < rows; ++y) {
-    for (int x = 0; x < cols; ++x) {
-      const int kind = rng.uniform(0, 10);
-      float v = rng.uniform(0.f, 80.f);
-      if (kind == 0) v = bdis::kNoDisparity;
-      if (kind == 1) v = 2.0f;
-      if (kind == 2) v = std::numeric_limits<float>::quiet_NaN();
-      d.at<float>(y, x) = v;
-    }
-  }
-  return d;
+  return bdis_test::mixedDisparity(rows, cols, seed, 2.0f);
 }
 
 bool sameFloat(float a, float b) { return (std::isnan(a) && std::isnan(b)) || a == b; }

@@ -244,23 +244,8 @@ TEST(GeometryPoints, WorkOnMatcherOutput) {
 
 // ---- Point clouds into a byte buffer -------------------------------------------
 
-// Disparities over the whole range (estimates, no estimate, at and beyond
-// infinity, NaN), and their depth.
-cv::Mat mixedDisparity(int rows, int cols, uint64_t seed) {
-  cv::RNG rng(seed);
-  cv::Mat d(rows, cols, CV_32FC1);
-  for (int y = 0; y < rows; ++y) {
-    for (int x = 0; x < cols; ++x) {
-      const int kind = rng.uniform(0, 10);
-      float v = rng.uniform(0.f, 80.f);
-      if (kind == 0) v = kNoDisparity;
-      if (kind == 1) v = 2.0f;  // at infinity for cloudCamera()
-      if (kind == 2) v = kNaNf;
-      d.at<float>(y, x) = v;
-    }
-  }
-  return d;
-}
+// Disparities over the whole range; 2 px is at infinity for cloudCamera().
+cv::Mat mixedDisparity(int rows, int cols, uint64_t seed) { return bdis_test::mixedDisparity(rows, cols, seed, 2.0f); }
 
 StereoCamera cloudCamera() {
   StereoCamera c = StereoCamera::symmetric(520, 500, 3.5, 2.25, 0.5);
