@@ -211,8 +211,9 @@ class TestRawInput(unittest.TestCase):
 
         small_right = cv2.resize(raw_right, (w // 2, h // 2), interpolation=cv2.INTER_AREA)
         cases = [
+            # Both sides are bad: the frame is refused once, for whichever side pairs first.
             ("unknown distortion model", lambda s: self.raw.publish(s, raw_left, raw_right, *infos("fisheye_v2")),
-             "left camera_info has distortion model 'fisheye_v2'"),
+             "camera_info has distortion model 'fisheye_v2': image_proc/rectify"),
             ("right image smaller than its camera_info",
              lambda s: self.raw.publish(s, raw_left, raw_right[:100], *infos()),
              "right camera_info is for %dx%d (after binning/ROI) but the raw image is %dx100" % (w, h, w)),
