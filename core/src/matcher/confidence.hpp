@@ -13,6 +13,10 @@ namespace detail {
 /// Full-resolution px of disagreement at which a cue halves the confidence.
 constexpr float kSpreadHalvingPx = 1.0f;      ///< weighted std of the covering patches' disparities
 constexpr float kLeftRightHalvingPx = 0.75f;  ///< |left-right difference|
+/// Disparity change across a patch (surface slope x patch side): at the 2 px
+/// outlier threshold a patch of one disparity no longer fits its footprint
+/// within it.
+constexpr float kSlantHalvingPx = 2.0f;
 
 /// The variance of a pixel's disparity, as a standard deviation of its
 /// error should be: a share of the covering patches' window fit (which alone

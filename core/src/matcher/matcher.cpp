@@ -13,6 +13,7 @@
 #include "left_right_check.hpp"
 #include "pyramid.hpp"
 #include "search_pass.hpp"
+#include "slant_cue.hpp"
 #include "upsampling.hpp"
 
 namespace bdis {
@@ -67,6 +68,7 @@ struct Matcher::Impl {
   detail::SearchPass left;                  ///< the search whose result is published
   detail::SearchPass check;                 ///< the left-right check's search
   std::vector<detail::SearchBand> bands;    ///< the finest level's search order
+  detail::SlantCue slant;
   detail::Upsampler upsampler;
 
   /// The finest level of both searches, band by band in the order of
@@ -114,13 +116,15 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   if (with_check) m.check.fuseFinestLevel();
   // 4. The left-right check, at the finest level's scale.
   detail::LevelMaps& out = m.left.finest();
+  const float level_px = 1.f / static_cast<float>(1 << finest);
   if (with_check) {
-    const float level_px = 1.f / static_cast<float>(1 << finest);
     detail::leftRightCheck(m.check.finest().disparity, P.checkToleranceFor(left.cols) * level_px,
                            detail::kLeftRightHalvingPx * level_px, out.disparity, out.confidence,
                            P.compute_variance ? &out.variance : nullptr);
   }
-  // 5. Upsampling to the input resolution.
+  // 5. The slant cue: surfaces too slanted for a patch of one disparity.
+  m.slant.apply(out.disparity, P.patch_size, detail::kSlantHalvingPx * level_px, out.confidence);
+  // 6. Upsampling to the input resolution.
   m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, result);
   if (P.compute_variance) {
     m.upsampler.upsampleVariance(out, finest, result);
