@@ -148,7 +148,7 @@ void print(const char* what, const RegionStats& s) {
 TEST(SyntheticBehaviour, TexturelessPatchGetsLowConfidenceNotConfidentWrongDepth) {
   // Inside the albedo-flat disk (eroded by 10 px, so no patch reaches its
   // textured rim) a matcher can only guess. Measured: 63% estimated, 0.0%
-  // with confidence >= 0.5, mean confidence 0.009 vs 0.39 on the rest.
+  // with confidence >= 0.5, mean confidence 0.007 vs 0.36 on the rest.
   const MatcherRun& run = bdisRun("textureless");
   const RegionStats patch = regionStats(run, [](const SyntheticFrame& f) {
     cv::Mat m;
@@ -171,11 +171,12 @@ TEST(SyntheticBehaviour, TexturelessPatchGetsLowConfidenceNotConfidentWrongDepth
 TEST(SyntheticBehaviour, InstrumentBoundaryHasFewConfidentOutliers) {
   // Bands of 12 px on either side of the instrument's outline (tissue next to
   // it, where foreground fattening strikes, and the instrument's rim).
-  // Measured: confident (>= 0.5) and off by > 2 px on 0.45% of the tissue
-  // band and 0.74% of the rim, 0.00% on tissue farther away. Before the
-  // confidence took the covering patches' disagreement and the left-right
-  // difference into account: 13.7% and 8.7%, the fattened band among the
-  // frame's most confident pixels.
+  // Measured: confident (>= 0.5) and off by > 2 px on 0.00% of the tissue
+  // band, of the rim and of the tissue farther away. Before the confidence
+  // took the covering patches' disagreement and the left-right difference
+  // into account: 13.7% and 8.7%, the fattened band among the frame's most
+  // confident pixels; with those cues and before the slant cue: 0.45% and
+  // 0.74%.
   const MatcherRun& run = bdisRun("instrument");
   auto band = [](const SyntheticFrame& f, bool tissue_side) {
     const cv::Mat inst = f.label == bdis::synth::kLabelInstrument;
@@ -195,8 +196,8 @@ TEST(SyntheticBehaviour, InstrumentBoundaryHasFewConfidentOutliers) {
   print("tool rim (12 px)", rim);
   print("tissue farther than 24 px", away);
   EXPECT_GT(tissue.pixels, 10000);
-  EXPECT_LE(tissue.share(tissue.confident_bad2), 0.015);
-  EXPECT_LE(rim.share(rim.confident_bad2), 0.02);
+  EXPECT_LE(tissue.share(tissue.confident_bad2), 0.005);
+  EXPECT_LE(rim.share(rim.confident_bad2), 0.005);
   EXPECT_LE(away.share(away.confident_bad2), 0.002);
 }
 
@@ -245,10 +246,11 @@ TEST(SyntheticBehaviour, ConfidenceRanksTheErrors) {
   // the estimates to the next more confident one, and the most confident
   // half holds few. Measured (bad2 of the most confident 50 %, and of each
   // tenth, least confident first):
-  //   instrument     0.0 %: 25.3  9.4  3.4  1.4 0.2 0.0 0.0 0.0 0.0 0.0
-  //   tube           6.0 %: 30.2 18.6 14.3 10.1 8.2 7.9 7.5 6.1 5.0 3.6
-  //   dark_periphery 0.4 %: 33.3 20.5 15.4 13.0 8.9 2.2 0.0 0.0 0.0 0.0
-  const std::map<std::string, double> max_top50 = {{"instrument", 0.01}, {"tube", 0.08}, {"dark_periphery", 0.02}};
+  //   instrument     0.0 %: 33.5  6.0  0.2  0.0 0.0 0.0 0.0 0.0 0.0 0.0
+  //   tube           4.4 %: 36.5 21.4 14.3  9.9 7.4 5.8 5.8 4.5 3.9 2.1
+  //   dark_periphery 0.4 %: 34.2 21.6 15.4 12.1 7.9 2.1 0.0 0.0 0.0 0.0
+  // (tube 6.0 % before the slant cue: its walls are the most slanted surfaces.)
+  const std::map<std::string, double> max_top50 = {{"instrument", 0.01}, {"tube", 0.06}, {"dark_periphery", 0.02}};
   for (const auto& [name, bar] : max_top50) {
     const bdis::Sparsification s = bdis::sparsify(samplesOf(bdisRun(name)));
     std::printf("  %-15s bad2 of the most confident half %.1f %%, deciles:", name.c_str(), 100 * s.bad2_top50);
