@@ -1,9 +1,10 @@
 // What a pixel's confidence is made of (docs/method.md, "Confidence"): the
 // mean evidence of the patches covering it, lowered where those patches
 // disagree on its disparity (the pixel mixes surfaces: a depth edge, an
-// occluder's rim, a guess in a flat region) and where the search from the
-// right image lands elsewhere (left-right check). Measured on generated
-// scenes and the colon sequences, both cues rank the wrong estimates better
+// occluder's rim, a guess in a flat region), where the search from the
+// right image lands elsewhere (left-right check) and where the surface is too
+// slanted for a patch of one disparity (slant_cue.hpp). Measured on generated
+// scenes and the colon sequences, each cue ranks the wrong estimates better
 // than the evidence alone; see docs/method.md for the figures.
 #pragma once
 
