@@ -65,14 +65,23 @@ void slantRow(int w, int r, const float* __restrict above, const float* __restri
 void SlantCue::apply(const cv::Mat1f& disparity, int patch_px, float halving, cv::Mat1f& confidence) {
   const int w = disparity.cols, h = disparity.rows;
   const int r = std::max(1, patch_px / 2), side = 2 * r + 1;
-  padded_value_.assign(static_cast<size_t>(w + 2 * r), 0.f);
-  padded_count_.assign(static_cast<size_t>(w + 2 * r), 0.f);
+  // Only the padding is set here; every other element is written below.
+  padded_value_.resize(static_cast<size_t>(w + 2 * r));
+  padded_count_.resize(static_cast<size_t>(w + 2 * r));
+  for (std::vector<float>* padded : {&padded_value_, &padded_count_}) {
+    std::fill(padded->begin(), padded->begin() + r, 0.f);
+    std::fill(padded->end() - r, padded->end(), 0.f);
+  }
   row_sum_.create(h, w);
   row_count_.create(h, w);
   column_sum_.resize(static_cast<size_t>(w));
   column_count_.resize(static_cast<size_t>(w));
   mean_.create(h + 1, w + 2 * r);
-  for (int y = 0; y <= h; ++y) std::fill(mean_[y], mean_[y] + mean_.cols, kNoDisparity);  // setTo() allocates
+  for (int y = 0; y < h; ++y) {
+    std::fill(mean_[y], mean_[y] + r, kNoDisparity);
+    std::fill(mean_[y] + r + w, mean_[y] + w + 2 * r, kNoDisparity);
+  }
+  std::fill(mean_[h], mean_[h] + w + 2 * r, kNoDisparity);  // (setTo() would allocate)
 
   for (int y = 0; y < h; ++y) {
     const float* d = disparity[y];
