@@ -106,6 +106,21 @@ build_package() {
      -j"$(nproc)" "$@" >"$WS_DIR/build.log" 2>&1) || { tail -n 60 "$WS_DIR/build.log"; log "build failed (full log: $WS_DIR/build.log)"; return 1; }
 }
 
+# Removes DIR and everything under it from the colon-separated lists in the
+# named variables (PATH, LD_LIBRARY_PATH, ...); a list left empty is unset.
+drop_from_path_lists() {
+  local dir="$1" var entry
+  shift
+  for var in "$@"; do
+    local kept=() entries=()
+    IFS=: read -ra entries <<<"${!var:-}"
+    for entry in "${entries[@]}"; do
+      case "$entry" in "$dir" | "$dir"/*) ;; *) kept+=("$entry") ;; esac
+    done
+    if [ ${#kept[@]} -gt 0 ]; then export "$var=$(IFS=:; echo "${kept[*]}")"; else unset "$var"; fi
+  done
+}
+
 source_workspace() {
   set +u
   # shellcheck disable=SC1091

@@ -26,15 +26,8 @@ rm -rf "$RESULTS_DIR" "$INSTALL_DIR" "$WORK"
 mkdir -p "$RESULTS_DIR" "$WORK"
 
 # The devel space stays out of the install's parent workspaces: drop what
-# test.sh sourced from the environment of the build (as test_sanitizers.sh).
-for var in CMAKE_PREFIX_PATH LD_LIBRARY_PATH PKG_CONFIG_PATH PYTHONPATH ROS_PACKAGE_PATH; do
-  kept=()
-  IFS=: read -ra entries <<<"${!var:-}"
-  for entry in "${entries[@]}"; do
-    case "$entry" in "$WS_DIR" | "$WS_DIR"/*) ;; *) kept+=("$entry") ;; esac
-  done
-  if [ ${#kept[@]} -gt 0 ]; then export "$var=$(IFS=:; echo "${kept[*]}")"; else unset "$var"; fi
-done
+# test.sh sourced from the environment of the build.
+drop_from_path_lists "$WS_DIR" CMAKE_PREFIX_PATH LD_LIBRARY_PATH PKG_CONFIG_PATH PYTHONPATH ROS_PACKAGE_PATH
 
 result() {  # NAME [junit_case.py options]
   local name="$1"

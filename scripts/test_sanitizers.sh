@@ -20,14 +20,7 @@ WS_DIR="$MAIN_WS_DIR/asan"
 # test.sh has sourced the main workspace. Drop its entries from the environment,
 # or the sanitizer workspace would chain onto it (two bdis_stereo packages on
 # ROS_PACKAGE_PATH, the other one's libraries on LD_LIBRARY_PATH).
-for var in CMAKE_PREFIX_PATH LD_LIBRARY_PATH PKG_CONFIG_PATH PYTHONPATH ROS_PACKAGE_PATH PATH; do
-  kept=()
-  IFS=: read -ra entries <<<"${!var:-}"
-  for entry in "${entries[@]}"; do
-    case "$entry" in "$MAIN_WS_DIR" | "$MAIN_WS_DIR"/*) ;; *) kept+=("$entry") ;; esac
-  done
-  if [ ${#kept[@]} -gt 0 ]; then export "$var=$(IFS=:; echo "${kept[*]}")"; else unset "$var"; fi
-done
+drop_from_path_lists "$MAIN_WS_DIR" CMAKE_PREFIX_PATH LD_LIBRARY_PATH PKG_CONFIG_PATH PYTHONPATH ROS_PACKAGE_PATH PATH
 
 # Only what the tests need: no benchmark, no rendered sample.
 build_package -DBDIS_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
