@@ -4,7 +4,9 @@
 // of the frame's last subscribed output here minus its stamp (= its publish
 // time). Works for any node with the stereo_image_proc interface (inputs
 // NS/{left,right}/{image_rect,camera_info}), so the same run measures
-// bdis_stereo and stereo_image_proc. Prints one table row; --json appends.
+// bdis_stereo and stereo_image_proc. Also reports the median of the node's
+// own processing_ms_mean from /diagnostics (bdis_stereo only: decoding to
+// publishing, without the transport). Prints one table row; --json appends.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -16,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <ros/ros.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
@@ -78,6 +81,46 @@ std::vector<Frame> loadBag(const Options& o) {
   return frames;
 }
 
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const double pos = q / 100.0 * static_cast<double>(v.size() - 1);
+  const size_t i = static_cast<size_t>(pos);
+  const double frac = pos - static_cast<double>(i);
+  return i + 1 < v.size() ? v[i] * (1 - frac) + v[i + 1] * frac : v[i];
+}
+
+/// The nodelet's own processing time per frame (decoding to publishing), as
+/// its diagnostics give it: one mean per diagnostics period. stereo_image_proc
+/// publishes none.
+class NodeProcessing {
+ public:
+  void record(const diagnostic_msgs::DiagnosticArrayConstPtr& array) {
+    const ros::WallTime now = ros::WallTime::now();
+    for (const diagnostic_msgs::DiagnosticStatus& status : array->status) {
+      if (status.name.find("bdis_stereo") == std::string::npos) continue;
+      for (const diagnostic_msgs::KeyValue& kv : status.values) {
+        if (kv.key != "processing_ms_mean") continue;
+        std::lock_guard<std::mutex> lock(mutex_);
+        means_.emplace_back(now, std::stod(kv.value));
+      }
+    }
+  }
+  /// Median of the means received in [from, to] over periods with frames; -1 if none.
+  double median(ros::WallTime from, ros::WallTime to) const {
+    std::vector<double> in;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      for (const auto& [at, mean] : means_) if (at >= from && at <= to && mean > 0) in.push_back(mean);
+    }
+    return in.empty() ? -1.0 : percentile(in, 50);
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<std::pair<ros::WallTime, double>> means_;
+};
+
 /// Arrival times of every output per stamp (nanoseconds of ros::Time).
 class Arrivals {
  public:
@@ -114,15 +157,6 @@ class Arrivals {
   std::map<uint64_t, std::vector<uint64_t>> arrivals_;
   std::map<size_t, size_t> received_;  // messages per topic, warm-up included
 };
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const double pos = q / 100.0 * static_cast<double>(v.size() - 1);
-  const size_t i = static_cast<size_t>(pos);
-  const double frac = pos - static_cast<double>(i);
-  return i + 1 < v.size() ? v[i] * (1 - frac) + v[i + 1] * frac : v[i];
-}
 
 int run(int argc, char** argv) {
   Options o;
@@ -177,6 +211,10 @@ int run(int argc, char** argv) {
           ros::VoidConstPtr(), hints));
     }
   }
+  NodeProcessing processing;
+  // Not among the outputs waited for: stereo_image_proc publishes no diagnostics.
+  const ros::Subscriber diagnostics = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", 10, [&processing](const diagnostic_msgs::DiagnosticArrayConstPtr& m) { processing.record(m); });
   ros::AsyncSpinner spinner(2);
   spinner.start();
 
@@ -201,6 +239,7 @@ int run(int argc, char** argv) {
   std::vector<uint64_t> stamps(total, 0);
   const Clock::time_point t0 = Clock::now() + std::chrono::milliseconds(200);
   size_t late = 0;
+  ros::WallTime measuring_from;
   for (size_t k = 0; k < total && ros::ok(); ++k) {
     const auto due = t0 + std::chrono::nanoseconds(static_cast<int64_t>(1e9 * static_cast<double>(k) / o.rate));
     if (Clock::now() > due + std::chrono::milliseconds(2)) ++late;
@@ -216,8 +255,13 @@ int run(int argc, char** argv) {
     pub_l.publish(l);
     pub_r.publish(r);
     stamps[k] = stamp.toNSec();
+    if (k == first_measured) measuring_from = ros::WallTime::now();
   }
   ros::WallDuration(1.0).sleep();  // the last frames are still in the pipeline
+  // A diagnostics period that began before the measured frames is left out.
+  const double processing_ms = processing.median(measuring_from + ros::WallDuration(1.0), ros::WallTime::now());
+  char processing_text[16] = "-";
+  if (processing_ms >= 0) std::snprintf(processing_text, sizeof processing_text, "%.1f", processing_ms);
 
   std::vector<double> latency_ms;
   uint64_t first_out = 0, last_out = 0;
@@ -231,10 +275,10 @@ int run(int argc, char** argv) {
   }
   const size_t out = latency_ms.size();
   const double out_rate = out > 1 ? 1e9 * static_cast<double>(out - 1) / static_cast<double>(last_out - first_out) : 0;
-  std::printf("%-34s %6.0f Hz %6zu %6zu %6.1f%% %8.1f Hz %7.1f %7.1f %7.1f %7.1f\n", o.label.c_str(), o.rate,
+  std::printf("%-34s %6.0f Hz %6zu %6zu %6.1f%% %8.1f Hz %7.1f %7.1f %7.1f %7.1f %7s\n", o.label.c_str(), o.rate,
               measured, out, 100.0 * static_cast<double>(out) / static_cast<double>(measured), out_rate,
               percentile(latency_ms, 50), percentile(latency_ms, 95), percentile(latency_ms, 99),
-              latency_ms.empty() ? 0.0 : *std::max_element(latency_ms.begin(), latency_ms.end()));
+              latency_ms.empty() ? 0.0 : *std::max_element(latency_ms.begin(), latency_ms.end()), processing_text);
   if (late > total / 20) std::fprintf(stderr, "bdis_node_bench: %zu of %zu frames left late (> 2 ms)\n", late, total);
   if (!o.json.empty()) {
     std::ofstream js(o.json, std::ios::app);
@@ -242,6 +286,7 @@ int run(int argc, char** argv) {
        << ", \"frames_out\": " << out << ", \"output_rate_hz\": " << out_rate
        << ", \"latency_ms_p50\": " << percentile(latency_ms, 50) << ", \"latency_ms_p95\": " << percentile(latency_ms, 95)
        << ", \"latency_ms_p99\": " << percentile(latency_ms, 99) << ", \"late_sends\": " << late
+       << ", \"node_processing_ms\": " << (processing_ms >= 0 ? std::to_string(processing_ms) : "null")
        << ", \"frames_sent_total\": " << total << ", \"received_total\": {";
     for (size_t k = 0; k < o.outputs.size(); ++k)
       js << (k ? ", " : "") << "\"" << o.outputs[k] << "\": " << arrivals.received(k);
