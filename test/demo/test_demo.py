@@ -316,6 +316,43 @@ class TestDemo(unittest.TestCase):
         self.assertIn("cannot read", missing.stdout)
         self.assertEqual(montage("no_equals_sign").returncode, 2)
 
+    def test_8_error_by_surface_splits_the_wrong_estimates(self):
+        """scripts/error_by_surface.py on a constructed frame: a flat surface at
+        20 px estimated right, a slope from 80 to 100 px estimated 3 px off on
+        its left half; the bands, shares and the confident half's dark share."""
+        root = os.path.join(self.tmp, "surface")
+        h, w = 40, 80
+        left = np.full((h, w, 3), 100, np.uint8)
+        left[:, 60:] = 10  # dark: the right quarter (on the slope)
+        gt = np.full((h, w), 20.0, np.float32)
+        gt[:, 40:] = 80 + (np.arange(40, w) - 40) * 0.5  # slope 0.5 px per px
+        estimate = gt.copy()
+        estimate[:, 40:60] += 3  # wrong, too near: a quarter of the frame, all on the slope
+        estimate[:, 60:] -= 3    # wrong, too far and dark: another quarter
+        confidence = np.full((h, w), 0.2, np.float32)
+        confidence[:, 60:] = 0.9  # the dark wrong quarter is the most confident
+        confidence[:, :20] = 0.8  # with a quarter of the right ones
+        for sub, image in (("seq/left", left), ("seq/gt_disparity", np.round(gt * 256).astype(np.uint16)),
+                           ("d", np.round(estimate * 256).astype(np.uint16)),
+                           ("c", np.round(confidence * 65535).astype(np.uint16))):
+            os.makedirs(os.path.join(root, sub), exist_ok=True)
+            self.assertTrue(cv2.imwrite(os.path.join(root, sub, "000000.png"), image))
+        script = os.path.join(REPO, "scripts", "error_by_surface.py")
+        r = subprocess.run([sys.executable, script, os.path.join(root, "seq"), os.path.join(root, "d"),
+                            "--confidence", os.path.join(root, "c")],
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        self.assertEqual(r.returncode, 0, r.stdout)
+        self.assertIn("1 frames, density 1.000, bad2 50.0 %", r.stdout)
+        self.assertRegex(r.stdout, r"d_gt px 0-40 +50\.0 % of the estimates, bad2 +0\.0 %, +0\.0 % of the wrong")
+        self.assertRegex(r.stdout, r"d_gt px 80- +50\.0 % of the estimates, bad2 100\.0 %, 100\.0 % of the wrong")
+        self.assertIn("50 % too large a disparity (too near), 50 % too small", r.stdout)
+        self.assertIn("most confident half: bad2 50.0 %; dark (grey < 30): 50 % of it, 100 % of its wrong ones",
+                      r.stdout)
+        missing = subprocess.run([sys.executable, script, os.path.join(root, "seq"), os.path.join(root, "nowhere")],
+                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        self.assertEqual(missing.returncode, 1, missing.stdout)
+        self.assertIn("cannot read", missing.stdout)
+
 
 if __name__ == "__main__":
     import rosunit
