@@ -2,8 +2,9 @@
 // mean evidence of the patches covering it, lowered where those patches
 // disagree on its disparity (the pixel mixes surfaces: a depth edge, an
 // occluder's rim, a guess in a flat region), where the search from the
-// right image lands elsewhere (left-right check) and where the surface is too
-// slanted for a patch of one disparity (slant_cue.hpp). Measured on generated
+// right image lands elsewhere (left-right check), where the surface is too
+// slanted for a patch of one disparity (slant_cue.hpp) and where most of
+// its neighbourhood got no estimate (support_cue.hpp). Measured on generated
 // scenes and the colon sequences, each cue ranks the wrong estimates better
 // than the evidence alone; see docs/method.md for the figures.
 #pragma once
@@ -18,6 +19,9 @@ constexpr float kLeftRightHalvingPx = 0.75f;  ///< |left-right difference|
 /// outlier threshold a patch of one disparity no longer fits its footprint
 /// within it.
 constexpr float kSlantHalvingPx = 2.0f;
+/// Share of a pixel's neighbourhood without an estimate at which the
+/// confidence halves: a quarter of what its covering patches reach.
+constexpr float kSupportHalvingShare = 0.25f;
 
 /// The variance of a pixel's disparity, as a standard deviation of its
 /// error should be: a share of the covering patches' window fit (which alone

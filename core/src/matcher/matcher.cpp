@@ -1,6 +1,7 @@
 // BDIS as a pipeline of stages (docs/method.md): the pyramid, then per level
 // patch search -> posterior -> fusion from coarse to fine, then the
-// left-right check and the upsampling to the input resolution.
+// left-right check, the confidence's cues and the upsampling to the input
+// resolution.
 #include "bdis_stereo/matcher.hpp"
 
 #include <algorithm>
@@ -14,6 +15,7 @@
 #include "pyramid.hpp"
 #include "search_pass.hpp"
 #include "slant_cue.hpp"
+#include "support_cue.hpp"
 #include "upsampling.hpp"
 
 namespace bdis {
@@ -69,6 +71,7 @@ struct Matcher::Impl {
   detail::SearchPass check;                 ///< the left-right check's search
   std::vector<detail::SearchBand> bands;    ///< the finest level's search order
   detail::SlantCue slant;
+  detail::SupportCue support;
   detail::Upsampler upsampler;
 
   /// The finest level of both searches, band by band in the order of
@@ -124,7 +127,10 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   }
   // 5. The slant cue: surfaces too slanted for a patch of one disparity.
   m.slant.apply(out.disparity, P.patch_size, detail::kSlantHalvingPx * level_px, out.confidence);
-  // 6. Upsampling to the input resolution.
+  // 6. The support cue: estimates among holes.
+  m.support.apply(out.disparity, m.pyramid.level(finest).left_valid, m.pyramid.level(finest).left, P.patch_size, detail::kSupportHalvingShare,
+                  out.confidence);
+  // 7. Upsampling to the input resolution.
   m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, result);
   if (P.compute_variance) {
     m.upsampler.upsampleVariance(out, finest, result);

@@ -8,9 +8,9 @@
 // neighbours, whose small jitter says nothing about the slant.
 #pragma once
 
-#include <vector>
-
 #include <opencv2/core.hpp>
+
+#include "box_sums.hpp"
 
 namespace bdis {
 namespace detail {
@@ -28,9 +28,7 @@ class SlantCue {
   void apply(const cv::Mat1f& disparity, int patch_px, float halving, cv::Mat1f& confidence);
 
  private:
-  std::vector<float> padded_value_, padded_count_;  ///< a row, 0 where no estimate, r zeros each side
-  cv::Mat1f row_sum_, row_count_;                   ///< the rows' horizontal box sums
-  std::vector<float> column_sum_, column_count_;    ///< one row of box sums
+  BoxSums sums_;  ///< of the estimates and of their count
   /// Box mean of the estimates, kNoDisparity where the box has none; r
   /// columns of kNoDisparity each side, and one all-kNoDisparity row last
   /// (stands in for the rows above the first and below the last).

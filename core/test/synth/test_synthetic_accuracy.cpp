@@ -243,21 +243,29 @@ bdis::EstimateSamples samplesOf(const MatcherRun& run) {
 
 TEST(SyntheticBehaviour, ConfidenceRanksTheErrors) {
   // A higher confidence has fewer outliers: bad2 falls from each tenth of
-  // the estimates to the next more confident one, and the most confident
-  // half holds few. Measured (bad2 of the most confident 50 %, and of each
-  // tenth, least confident first):
-  //   instrument     0.0 %: 33.5  6.0  0.2  0.0 0.0 0.0 0.0 0.0 0.0 0.0
-  //   tube           4.4 %: 36.5 21.4 14.3  9.9 7.4 5.8 5.8 4.5 3.9 2.1
-  //   dark_periphery 0.4 %: 34.2 21.6 15.4 12.1 7.9 2.1 0.0 0.0 0.0 0.0
-  // (tube 6.0 % before the slant cue: its walls are the most slanted surfaces.)
-  const std::map<std::string, double> max_top50 = {{"instrument", 0.01}, {"tube", 0.06}, {"dark_periphery", 0.02}};
-  for (const auto& [name, bar] : max_top50) {
+  // the estimates to the next more confident one, the most confident half
+  // holds few, and the sparsification area stays near the oracle's.
+  // Measured (bad2 of the most confident 50 %, of each tenth, least
+  // confident first; sparsification / oracle):
+  //   instrument     0.0 %: 33.8  5.8  0.2  0.0 0.0 0.0 0.0 0.0 0.0 0.0; 2.31
+  //   tube           4.0 %: 38.1 22.4 14.4  9.6 7.0 5.8 5.5 4.3 3.0 1.4; 6.52
+  //   dark_periphery 0.3 %: 36.4 22.9 15.9 11.2 5.3 1.5 0.0 0.0 0.0 0.0; 4.12
+  // Before the slant cue tube's half held 6.0 %; before the support cue the
+  // ratios were 2.33, 7.18 and 4.54 (the dark periphery's survivors among
+  // rejected neighbours ranked too high).
+  struct Bar {
+    double max_top50, max_ratio;
+  };
+  const std::map<std::string, Bar> bars = {
+      {"instrument", {0.01, 2.5}}, {"tube", {0.05, 6.8}}, {"dark_periphery", {0.02, 4.3}}};
+  for (const auto& [name, bar] : bars) {
     const bdis::Sparsification s = bdis::sparsify(samplesOf(bdisRun(name)));
     std::printf("  %-15s bad2 of the most confident half %.1f %%, deciles:", name.c_str(), 100 * s.bad2_top50);
     for (double d : s.decile_bad2) std::printf(" %.1f", 100 * d);
     std::printf("; sparsification %.2f x the oracle's\n", s.ratio());
     EXPECT_TRUE(s.monotone()) << name;
-    EXPECT_LE(s.bad2_top50, bar) << name;
+    EXPECT_LE(s.bad2_top50, bar.max_top50) << name;
+    EXPECT_LE(s.ratio(), bar.max_ratio) << name;
   }
 }
 

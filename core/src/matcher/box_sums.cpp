@@ -1,0 +1,76 @@
+#include "box_sums.hpp"
+
+#include <algorithm>
+
+#include "patch_kernels.hpp"  // BDIS_ROW_LOOP
+
+namespace bdis {
+namespace detail {
+namespace {
+
+/// out[x] = sum of padded[x .. x + side - 1], summed in that order.
+BDIS_ROW_LOOP
+void boxRow(int w, int side, const float* __restrict padded, float* __restrict out) {
+  for (int x = 0; x < w; ++x) out[x] = 0.f;
+  for (int k = 0; k < side; ++k) {
+    for (int x = 0; x < w; ++x) out[x] += padded[x + k];
+  }
+}
+
+BDIS_ROW_LOOP
+void addRow(int w, const float* __restrict row, float* __restrict sum) {
+  for (int x = 0; x < w; ++x) sum[x] += row[x];
+}
+
+BDIS_ROW_LOOP
+void subtractRow(int w, const float* __restrict row, float* __restrict sum) {
+  for (int x = 0; x < w; ++x) sum[x] -= row[x];
+}
+
+}  // namespace
+
+void BoxSums::begin(int w, int h, int r) {
+  w_ = w;
+  h_ = h;
+  r_ = r;
+  // Only the padding is set here; every other element is written per row.
+  padded_a_.resize(static_cast<size_t>(w + 2 * r));
+  padded_b_.resize(static_cast<size_t>(w + 2 * r));
+  for (std::vector<float>* padded : {&padded_a_, &padded_b_}) {
+    std::fill(padded->begin(), padded->begin() + r, 0.f);
+    std::fill(padded->end() - r, padded->end(), 0.f);
+  }
+  row_a_.create(h, w);
+  row_b_.create(h, w);
+  column_a_.resize(static_cast<size_t>(w));
+  column_b_.resize(static_cast<size_t>(w));
+}
+
+void BoxSums::sumRow(int y) {
+  boxRow(w_, 2 * r_ + 1, padded_a_.data(), row_a_[y]);
+  boxRow(w_, 2 * r_ + 1, padded_b_.data(), row_b_[y]);
+}
+
+void BoxSums::nextColumnSums(int y, const float*& a, const float*& b) {
+  if (y == 0) {
+    std::fill(column_a_.begin(), column_a_.end(), 0.f);
+    std::fill(column_b_.begin(), column_b_.end(), 0.f);
+    for (int j = 0; j < std::min(h_, r_); ++j) {
+      addRow(w_, row_a_[j], column_a_.data());
+      addRow(w_, row_b_[j], column_b_.data());
+    }
+  }
+  if (y + r_ < h_) {
+    addRow(w_, row_a_[y + r_], column_a_.data());
+    addRow(w_, row_b_[y + r_], column_b_.data());
+  }
+  if (y - r_ - 1 >= 0) {
+    subtractRow(w_, row_a_[y - r_ - 1], column_a_.data());
+    subtractRow(w_, row_b_[y - r_ - 1], column_b_.data());
+  }
+  a = column_a_.data();
+  b = column_b_.data();
+}
+
+}  // namespace detail
+}  // namespace bdis

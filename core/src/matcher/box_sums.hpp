@@ -1,0 +1,38 @@
+// Sliding box sums of two maps at once, for the confidence cues that look at
+// a pixel's neighbourhood (slant_cue.hpp, support_cue.hpp): separable, in row
+// loops that vectorise, with buffers kept for the next frame of the same size.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace bdis {
+namespace detail {
+
+/// The sums of two maps A and B over a (2r+1) x (2r+1) box around each pixel,
+/// the box clipped to the map. Use: begin(); for each row y, fill paddedA()
+/// and paddedB() at columns 0..w-1 and call sumRow(y); then for each row y in
+/// order, nextColumnSums(y) gives the box sums of row y.
+class BoxSums {
+ public:
+  void begin(int w, int h, int r);
+  /// Column 0 of the row scratch: r zero columns lie before it and after w.
+  float* paddedA() { return padded_a_.data() + r_; }
+  float* paddedB() { return padded_b_.data() + r_; }
+  /// The horizontal box sums of the scratch rows become row y's.
+  void sumRow(int y);
+  /// The box sums of row y, for y = 0, 1, ..., h-1 in turn: the vertical box
+  /// slides down one row in, one row out (counts stay exact; the sums'
+  /// rounding is far below what a cue resolves). Valid until the next call.
+  void nextColumnSums(int y, const float*& a, const float*& b);
+
+ private:
+  int w_ = 0, h_ = 0, r_ = 0;
+  std::vector<float> padded_a_, padded_b_;  ///< a row, r zeros each side
+  cv::Mat1f row_a_, row_b_;                 ///< the rows' horizontal box sums
+  std::vector<float> column_a_, column_b_;  ///< one row of box sums
+};
+
+}  // namespace detail
+}  // namespace bdis

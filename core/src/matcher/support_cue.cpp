@@ -1,0 +1,52 @@
+#include "support_cue.hpp"
+
+#include <algorithm>
+
+#include "confidence.hpp"
+#include "patch_kernels.hpp"  // BDIS_ROW_LOOP
+
+namespace bdis {
+namespace detail {
+namespace {
+
+constexpr float kBrightInvalidGrey = 128.f;
+
+BDIS_ROW_LOOP
+void supportRow(int w, const float* __restrict estimates, const float* __restrict valid,
+                const float* __restrict disparity, float inv_halving_sq, float* __restrict confidence) {
+  for (int x = 0; x < w; ++x) {
+    const float missing = std::max(0.f, 1.f - estimates[x] / std::max(valid[x], 1.f));
+    const float c = confidence[x] * agreement(missing * missing, inv_halving_sq);
+    confidence[x] = disparity[x] >= 0.f ? c : confidence[x];
+  }
+}
+
+}  // namespace
+
+void SupportCue::apply(const cv::Mat1f& disparity, const cv::Mat1b& valid, const cv::Mat1f& grey, int patch_px,
+                       float halving_share, cv::Mat1f& confidence) {
+  CV_Assert(valid.size() == disparity.size() && confidence.size() == disparity.size());
+  const int w = disparity.cols, h = disparity.rows;
+  sums_.begin(w, h, std::max(1, patch_px - 1));
+  float* estimates = sums_.paddedA();
+  float* valid_pixels = sums_.paddedB();
+  for (int y = 0; y < h; ++y) {
+    const float* d = disparity[y];
+    const uchar* v = valid[y];
+    const float* g = grey[y];
+    for (int x = 0; x < w; ++x) {
+      estimates[x] = d[x] >= 0.f ? 1.f : 0.f;
+      valid_pixels[x] = v[x] || g[x] >= kBrightInvalidGrey ? 1.f : 0.f;
+    }
+    sums_.sumRow(y);
+  }
+  const float inv_halving_sq = 1.f / (halving_share * halving_share);
+  for (int y = 0; y < h; ++y) {
+    const float *n_estimates, *n_valid;
+    sums_.nextColumnSums(y, n_estimates, n_valid);
+    supportRow(w, n_estimates, n_valid, disparity[y], inv_halving_sq, confidence[y]);
+  }
+}
+
+}  // namespace detail
+}  // namespace bdis

@@ -1,0 +1,33 @@
+// The support cue of the confidence (docs/method.md, "Confidence"): an
+// estimate whose neighbourhood the matcher mostly rejected (the confidence
+// floor, the discard tests, the left-right check) survived where matching
+// failed around it, and such survivors are often wrong too: the dark
+// periphery, an occluded strip, the tissue beside a highlight. The
+// neighbourhood is what the patches covering the pixel reach, a box of side
+// 2p - 1; only pixels that could have an estimate (valid: inside the view,
+// not saturated) count.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include "box_sums.hpp"
+
+namespace bdis {
+namespace detail {
+
+class SupportCue {
+ public:
+  /// Multiplies the confidence of each estimate of `disparity` (level px;
+  /// kNoDisparity where none) by agreement() of the share of the valid
+  /// pixels (`valid` != 0) in the box of side 2 `patch_px` - 1 around it
+  /// that have no estimate, with `halving_share`. Buffers are kept for the
+  /// next frame of the same size.
+  void apply(const cv::Mat1f& disparity, const cv::Mat1b& valid, const cv::Mat1f& grey, int patch_px,
+             float halving_share, cv::Mat1f& confidence);
+
+ private:
+  BoxSums sums_;  ///< of the estimates' count and of the valid pixels'
+};
+
+}  // namespace detail
+}  // namespace bdis

@@ -1,0 +1,106 @@
+// The support cue (support_cue.hpp) on hand-made maps whose neighbourhoods
+// hold a known share of estimates.
+#include <gtest/gtest.h>
+
+#include "bdis_stereo/matcher.hpp"
+#include "support_cue.hpp"
+
+namespace {
+
+using bdis::kNoDisparity;
+using bdis::detail::SupportCue;
+
+constexpr int kPatch = 8;          // level px: the box has side 15, 7 px each side
+constexpr float kHalving = 0.25f;  // share of the box without an estimate that halves
+
+/// The factor the cue gives a pixel whose box lacks estimates at `missing` of its valid pixels.
+float expectedFactor(float missing) { return 1.f / (1.f + (missing / kHalving) * (missing / kHalving)); }
+
+struct Maps {
+  cv::Mat1f disparity, confidence, grey;
+  cv::Mat1b valid;
+  Maps(int w, int h) : disparity(h, w, 20.f), confidence(h, w, 1.f), grey(h, w, 100.f), valid(h, w, uchar{1}) {}
+  void removeEstimates(const cv::Rect& r) {
+    disparity(r).setTo(kNoDisparity);
+    confidence(r).setTo(0.f);
+  }
+  void apply(SupportCue& cue) { cue.apply(disparity, valid, grey, kPatch, kHalving, confidence); }
+};
+
+TEST(SupportCue, FullySupportedEstimatesKeepTheirConfidence) {
+  Maps m(64, 48);
+  SupportCue cue;
+  m.apply(cue);
+  EXPECT_EQ(cv::countNonZero(m.confidence != 1.f), 0);
+}
+
+TEST(SupportCue, EstimatesBesideAHoleGetTheFactorOfTheMissingShare) {
+  Maps m(64, 48);
+  m.removeEstimates(cv::Rect(32, 0, 32, 48));  // the right half has no estimate
+  SupportCue cue;
+  m.apply(cue);
+  // Away from the top and bottom the box has 15 rows; at column x its columns
+  // x-7 .. x+7 lack estimates from 32 on.
+  for (int x = 20; x < 32; ++x) {
+    const float missing = static_cast<float>(std::max(0, x + 7 - 31)) / 15.f;
+    EXPECT_NEAR(m.confidence(24, x), expectedFactor(missing), 1e-5f) << "x " << x;
+  }
+  EXPECT_NEAR(m.confidence(24, 31), expectedFactor(7.f / 15.f), 1e-5f);  // about 0.22
+  for (int x = 32; x < 64; ++x) EXPECT_EQ(m.confidence(24, x), 0.f) << "no estimate stays 0";
+}
+
+TEST(SupportCue, ALoneEstimateAmongHolesIsAlmostDiscounted) {
+  Maps m(64, 48);
+  m.removeEstimates(cv::Rect(0, 0, 64, 48));
+  m.disparity(20, 30) = 12.f;
+  m.confidence(20, 30) = 0.8f;
+  SupportCue cue;
+  m.apply(cue);
+  EXPECT_NEAR(m.confidence(20, 30), 0.8f * expectedFactor(224.f / 225.f), 1e-5f);  // about 0.05
+}
+
+TEST(SupportCue, BlackFrameDoesNotCountAgainstAnEstimate) {
+  // Pixels outside the view (invalid and dark: a rectification frame) can
+  // have no estimate, so the border of the view keeps its confidence.
+  Maps m(64, 48);
+  const cv::Rect frame(0, 0, 10, 48);
+  m.removeEstimates(frame);
+  m.valid(frame).setTo(0);
+  m.grey(frame).setTo(0.f);
+  SupportCue cue;
+  m.apply(cue);
+  EXPECT_EQ(cv::countNonZero(m.confidence.colRange(10, 64) != 1.f), 0);
+}
+
+TEST(SupportCue, SaturatedPixelsCountAsHoles) {
+  // A clipped highlight (invalid and bright) is a failure of the
+  // measurement: the tissue around it, where a highlight that moves between
+  // the views leaves wrong matches, has less support.
+  Maps m(64, 48);
+  const cv::Rect highlight(28, 18, 8, 8);
+  m.removeEstimates(highlight);
+  m.valid(highlight).setTo(0);
+  m.grey(highlight).setTo(255.f);
+  SupportCue cue;
+  m.apply(cue);
+  // Beside the highlight, its box holds 7 of its 8 columns: 56 clipped pixels of 225.
+  EXPECT_NEAR(m.confidence(22, 27), expectedFactor(56.f / 225.f), 1e-5f);
+  EXPECT_EQ(m.confidence(22, 10), 1.f);  // out of reach
+}
+
+TEST(SupportCue, TinyMapsAndReusedBuffers) {
+  SupportCue cue;
+  for (const auto& [w, h] : {std::pair<int, int>{1, 1}, {3, 40}, {40, 3}, {64, 48}, {5, 5}}) {
+    Maps m(w, h);
+    m.apply(cue);
+    EXPECT_EQ(cv::countNonZero(m.confidence != 1.f), 0) << w << "x" << h;
+  }
+  Maps m(5, 5);
+  m.removeEstimates(cv::Rect(0, 0, 5, 5));
+  m.disparity(2, 2) = 3.f;
+  m.confidence(2, 2) = 1.f;
+  m.apply(cue);  // the box is the whole map, clipped: 1 estimate of 25 valid pixels
+  EXPECT_NEAR(m.confidence(2, 2), expectedFactor(24.f / 25.f), 1e-5f);
+}
+
+}  // namespace
