@@ -9,6 +9,10 @@ namespace bdis {
 namespace detail {
 namespace {
 
+// An invalid pixel is outside the view (black, or the dark seam next to a
+// rectification frame: grey 20 or less) or clipped (a highlight at the
+// saturation grey or brighter); at a level it is the mean of 2^s x 2^s
+// such pixels and valid ones. Mid-grey tells the two kinds apart.
 constexpr float kBrightInvalidGrey = 128.f;
 
 BDIS_ROW_LOOP

@@ -4,8 +4,10 @@
 // failed around it, and such survivors are often wrong too: the dark
 // periphery, an occluded strip, the tissue beside a highlight. The
 // neighbourhood is what the patches covering the pixel reach, a box of side
-// 2p - 1; only pixels that could have an estimate (valid: inside the view,
-// not saturated) count.
+// 2p - 1. Pixels outside the view (black, the frame's seam) do not count:
+// nothing could match there. Clipped pixels count as holes: the measurement
+// failed there, and a highlight that moves between the views leaves wrong
+// matches around it.
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -18,10 +20,11 @@ namespace detail {
 class SupportCue {
  public:
   /// Multiplies the confidence of each estimate of `disparity` (level px;
-  /// kNoDisparity where none) by agreement() of the share of the valid
-  /// pixels (`valid` != 0) in the box of side 2 `patch_px` - 1 around it
-  /// that have no estimate, with `halving_share`. Buffers are kept for the
-  /// next frame of the same size.
+  /// kNoDisparity where none) by agreement() of the share of the pixels in
+  /// the box of side 2 `patch_px` - 1 around it that have no estimate, with
+  /// `halving_share`. Counted are the valid pixels (`valid` != 0) and the
+  /// invalid bright ones (`grey`: clipped), not the invalid dark ones
+  /// (outside the view). Buffers are kept for the next frame of the same size.
   void apply(const cv::Mat1f& disparity, const cv::Mat1b& valid, const cv::Mat1f& grey, int patch_px,
              float halving_share, cv::Mat1f& confidence);
 
