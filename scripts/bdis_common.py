@@ -288,6 +288,20 @@ def cloud_array(msg):
     return np.frombuffer(msg.data, dtype=dtype).reshape(msg.height, msg.width)
 
 
+# ---------------------------------------------------------------- the tools' 16-bit PNGs
+def read_png16(path, scale):
+    """A 16-bit single-channel PNG (bdis_match's disparity, confidence;
+    ground truth) as float32 values / scale, and where it is non-zero."""
+    import cv2
+    import numpy as np
+    raw = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+    if raw is None:
+        raise Failure("cannot read %s" % path)
+    if raw.dtype != np.uint16 or raw.ndim != 2:
+        raise Failure("%s is not a 16-bit single-channel PNG" % path)
+    return raw.astype(np.float32) / scale, raw > 0
+
+
 # ---------------------------------------------------------------- pictures (bdis_demo, disparity_montage.py)
 MONTAGE_PANEL = (320, 240)  # width, height of one panel
 

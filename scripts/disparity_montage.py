@@ -29,16 +29,6 @@ import bdis_common as common  # noqa: E402
 PANEL_WIDTH = 360
 
 
-def read_png16(path, scale):
-    """A 16-bit PNG as float32 values / scale, and where it is non-zero."""
-    raw = cv2.imread(path, cv2.IMREAD_UNCHANGED)
-    if raw is None:
-        raise common.Failure("cannot read %s" % path)
-    if raw.dtype != np.uint16 or raw.ndim != 2:
-        raise common.Failure("%s is not a 16-bit single-channel PNG" % path)
-    return raw.astype(np.float32) / scale, raw > 0
-
-
 def parse_run(text):
     label, sep, dirs = text.partition("=")
     if not sep or not label or not dirs:
@@ -59,7 +49,7 @@ def montage(sequence, frame, runs):
     full_shape = in_view.shape
 
     def read_cropped(path, scale):
-        values, valid = read_png16(path, scale)
+        values, valid = common.read_png16(path, scale)
         if values.shape != full_shape:
             raise common.Failure("%s is %dx%d, the left image %dx%d" % (
                 path, values.shape[1], values.shape[0], full_shape[1], full_shape[0]))

@@ -35,15 +35,6 @@ DARK_GREY = 30
 WARP_SHIFT = 16  # px added to the residual so that it stays >= 0 for bdis_match
 
 
-def read_png16(path, scale):
-    raw = cv2.imread(path, cv2.IMREAD_UNCHANGED)
-    if raw is None:
-        raise common.Failure("cannot read %s" % path)
-    if raw.dtype != np.uint16 or raw.ndim != 2:
-        raise common.Failure("%s is not a 16-bit single-channel PNG" % path)
-    return raw.astype(np.float32) / scale
-
-
 def read_colour(path):
     image = cv2.imread(path, cv2.IMREAD_COLOR)
     if image is None:
@@ -78,7 +69,7 @@ def warped_match(bdis_match, left, right, base, work):
     # The check's mirrored search has no meaning on a warped pair.
     subprocess.run([bdis_match, paths[0], paths[1], paths[2], "--set", "lr_check_tolerance=0"],
                    check=True, stdout=subprocess.DEVNULL)
-    residual = read_png16(paths[2], 256.0)
+    residual = common.read_png16(paths[2], 256.0)[0]
     return np.where(residual > 0, base + residual - WARP_SHIFT, 0).astype(np.float32)
 
 
@@ -91,9 +82,9 @@ def collect(args):
     work = tempfile.mkdtemp(prefix="error_by_surface_")
     try:
         for name in names:
-            gt = read_png16(os.path.join(args.sequence, "gt_disparity", name), 256.0)
+            gt = common.read_png16(os.path.join(args.sequence, "gt_disparity", name), 256.0)[0]
             left = read_colour(os.path.join(args.sequence, "left", name))
-            disparity = read_png16(os.path.join(args.disparity_dir, name), 256.0)
+            disparity = common.read_png16(os.path.join(args.disparity_dir, name), 256.0)[0]
             if args.warp_by:
                 right = read_colour(os.path.join(args.sequence, "right", name))
                 base = smooth_fill(disparity if args.warp_by == "first" else gt)
@@ -109,7 +100,7 @@ def collect(args):
             columns["slope"].append(slope[estimated])
             columns["grey"].append(grey[estimated])
             if args.confidence:
-                confidence = read_png16(os.path.join(args.confidence, name), 65535.0)
+                confidence = common.read_png16(os.path.join(args.confidence, name), 65535.0)[0]
                 columns["confidence"].append(confidence[estimated])
     finally:
         for entry in os.listdir(work):
