@@ -36,8 +36,19 @@ class OnSharedData : public ::testing::TestWithParam<Bar> {
       GTEST_SKIP() << "shared data folder not found; set BDIS_DATA_DIR";
     }
   }
-  bdis::StereoSequence open(const char* sequence) const {
-    return bdis::StereoSequence::open(data_ + "/" + sequence);
+  /// Runs the balanced preset over every frame of `sequence` (with ground
+  /// truth) and hands each frame's left image, ground truth and result to `use`.
+  template <typename Use>
+  void matchEveryFrame(const char* sequence, Use&& use) const {
+    const bdis::StereoSequence seq = bdis::StereoSequence::open(data_ + "/" + sequence);
+    ASSERT_TRUE(seq.has_ground_truth);
+    bdis::Matcher matcher(bdis::MatcherParams::preset("balanced"));
+    bdis::MatchResult result;
+    for (size_t i = 0; i < seq.names.size(); ++i) {
+      const cv::Mat left = seq.left(i);
+      matcher.compute(left, seq.right(i), result);
+      use(left, seq.groundTruth(i), result);
+    }
   }
   std::string data_;
 };
@@ -46,17 +57,11 @@ class DefaultPresetAccuracy : public OnSharedData<JournalBar> {};
 
 TEST_P(DefaultPresetAccuracy, MatchesOrBeatsJournalReleaseOnEveryColumn) {
   const JournalBar bar = GetParam();
-  const bdis::StereoSequence seq = open(bar.sequence);
-  ASSERT_TRUE(seq.has_ground_truth);
-
-  bdis::Matcher matcher(bdis::MatcherParams::preset("balanced"));
-  bdis::MatchResult result;
   bdis::DisparityScore score;
-  for (size_t i = 0; i < seq.names.size(); ++i) {
-    const cv::Mat left = seq.left(i);
-    matcher.compute(left, seq.right(i), result);
-    score.add(bdis::scoreDisparity(result.disparity, seq.groundTruth(i), left));
-  }
+  ASSERT_NO_FATAL_FAILURE(matchEveryFrame(bar.sequence, [&](const cv::Mat& left, const cv::Mat& gt,
+                                                            const bdis::MatchResult& result) {
+    score.add(bdis::scoreDisparity(result.disparity, gt, left));
+  }));
   RecordProperty("density", std::to_string(score.density()));
   RecordProperty("median_error", std::to_string(score.medianError()));
   RecordProperty("bad2", std::to_string(score.bad2Rate()));
@@ -91,18 +96,11 @@ class DefaultPresetConfidence : public OnSharedData<RankingBar> {};
 // 9.3 % before the support cue).
 TEST_P(DefaultPresetConfidence, RanksTheErrors) {
   const RankingBar bar = GetParam();
-  const bdis::StereoSequence seq = open(bar.sequence);
-  ASSERT_TRUE(seq.has_ground_truth);
-
-  bdis::Matcher matcher(bdis::MatcherParams::preset("balanced"));
-  bdis::MatchResult result;
   bdis::EstimateSamples samples;
-  for (size_t i = 0; i < seq.names.size(); ++i) {
-    const cv::Mat left = seq.left(i);
-    const cv::Mat gt = seq.groundTruth(i);
-    matcher.compute(left, seq.right(i), result);
+  ASSERT_NO_FATAL_FAILURE(matchEveryFrame(bar.sequence, [&](const cv::Mat& left, const cv::Mat& gt,
+                                                            const bdis::MatchResult& result) {
     samples.add(result.disparity, gt, bdis::classifyPixels(gt, left), result.confidence, cv::Mat());
-  }
+  }));
   const bdis::Sparsification s = bdis::sparsify(samples);
   std::printf("%s: sparsification %.2f x the oracle's, bad2 of the most confident 25 %% / 50 %%: %.1f %% / %.1f %%\n",
               bar.sequence, s.ratio(), 100 * s.bad2_top25, 100 * s.bad2_top50);

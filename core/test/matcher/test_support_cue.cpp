@@ -24,6 +24,12 @@ struct Maps {
     disparity(r).setTo(kNoDisparity);
     confidence(r).setTo(0.f);
   }
+  /// No estimate and invalid, at grey level `grey` (0: outside the view; 255: clipped).
+  void invalidate(const cv::Rect& r, float grey_level) {
+    removeEstimates(r);
+    valid(r).setTo(0);
+    grey(r).setTo(grey_level);
+  }
   void apply(SupportCue& cue) { cue.apply(disparity, valid, grey, kPatch, kHalving, confidence); }
 };
 
@@ -63,10 +69,7 @@ TEST(SupportCue, BlackFrameDoesNotCountAgainstAnEstimate) {
   // Pixels outside the view (invalid and dark: a rectification frame) can
   // have no estimate, so the border of the view keeps its confidence.
   Maps m(64, 48);
-  const cv::Rect frame(0, 0, 10, 48);
-  m.removeEstimates(frame);
-  m.valid(frame).setTo(0);
-  m.grey(frame).setTo(0.f);
+  m.invalidate(cv::Rect(0, 0, 10, 48), 0.f);
   SupportCue cue;
   m.apply(cue);
   EXPECT_EQ(cv::countNonZero(m.confidence.colRange(10, 64) != 1.f), 0);
@@ -77,10 +80,7 @@ TEST(SupportCue, SaturatedPixelsCountAsHoles) {
   // measurement: the tissue around it, where a highlight that moves between
   // the views leaves wrong matches, has less support.
   Maps m(64, 48);
-  const cv::Rect highlight(28, 18, 8, 8);
-  m.removeEstimates(highlight);
-  m.valid(highlight).setTo(0);
-  m.grey(highlight).setTo(255.f);
+  m.invalidate(cv::Rect(28, 18, 8, 8), 255.f);
   SupportCue cue;
   m.apply(cue);
   // Beside the highlight, its box holds 7 of its 8 columns: 56 clipped pixels of 225.
