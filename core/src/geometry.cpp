@@ -98,7 +98,7 @@ void subsampleFixed(const cv::Mat& source, int stride, std::size_t bytes, cv::Ma
   for (int y = 0; y < out.rows; ++y) {
     const uint8_t* from = source.ptr<uint8_t>(y * stride);
     uint8_t* to = out.ptr<uint8_t>(y);
-    for (int x = 0; x < out.cols; ++x, from += step, to += size) std::memcpy(to, from, kBytes != 0 ? kBytes : size);
+    for (int x = 0; x < out.cols; ++x, from += step, to += size) std::memcpy(to, from, size);
   }
 }
 
