@@ -1,8 +1,11 @@
 // bdis_node_bench: replays a stereo bag (made by bdis_make_bag) at a fixed
 // rate into a running stereo node, restamping every frame with the time it is
 // published, and measures which frames come out and when: latency = arrival
-// of the frame's last subscribed output here minus its stamp (= its publish
-// time). Works for any node with the stereo_image_proc interface (inputs
+// of the frame's last subscribed output here (roscpp's receipt time: its last
+// byte read from the socket, before this process deserialises it and queues
+// the callback) minus its stamp (= its publish time). The time the callback
+// ran is kept too (last column, "cb p99"): it adds this process's own work.
+// Works for any node with the stereo_image_proc interface (inputs
 // NS/{left,right}/{image_rect,camera_info}), so the same run measures
 // bdis_stereo and stereo_image_proc. Also reports the median of the node's
 // own processing_ms_mean from /diagnostics (bdis_stereo only: decoding to
@@ -121,16 +124,23 @@ class NodeProcessing {
   std::vector<std::pair<ros::WallTime, double>> means_;
 };
 
-/// Arrival times of every output per stamp (nanoseconds of ros::Time).
+/// Arrival times of every output per stamp (nanoseconds of ros::Time): when
+/// roscpp received it and when its callback ran here.
 class Arrivals {
  public:
   explicit Arrivals(size_t topics) : topics_(topics) {}
-  void record(const ros::Time& stamp, size_t topic) {
+  void record(const ros::Time& stamp, size_t topic, const ros::Time& received) {
     const ros::Time now = ros::Time::now();
     std::lock_guard<std::mutex> lock(mutex_);
-    auto& slot = arrivals_[stamp.toNSec()];
-    if (slot.empty()) slot.assign(topics_, 0);
-    if (slot[topic] == 0) slot[topic] = now.toNSec();
+    Slot& slot = arrivals_[stamp.toNSec()];
+    if (slot.received.empty()) {
+      slot.received.assign(topics_, 0);
+      slot.handled.assign(topics_, 0);
+    }
+    if (slot.received[topic] == 0) {
+      slot.received[topic] = received.toNSec();
+      slot.handled[topic] = now.toNSec();
+    }
     ++received_[topic];
   }
   size_t received(size_t topic) const {
@@ -138,13 +148,13 @@ class Arrivals {
     auto it = received_.find(topic);
     return it == received_.end() ? 0 : it->second;
   }
-  /// Latest arrival of all topics, or 0 if one never came.
-  uint64_t complete(uint64_t stamp) const {
+  /// Latest arrival of all topics (received, or handled), or 0 if one never came.
+  uint64_t complete(uint64_t stamp, bool handled = false) const {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = arrivals_.find(stamp);
     if (it == arrivals_.end()) return 0;
     uint64_t last = 0;
-    for (uint64_t t : it->second) {
+    for (uint64_t t : handled ? it->second.handled : it->second.received) {
       if (t == 0) return 0;
       last = std::max(last, t);
     }
@@ -152,11 +162,24 @@ class Arrivals {
   }
 
  private:
+  struct Slot {
+    std::vector<uint64_t> received, handled;
+  };
   size_t topics_;
   mutable std::mutex mutex_;
-  std::map<uint64_t, std::vector<uint64_t>> arrivals_;
+  std::map<uint64_t, Slot> arrivals_;
   std::map<size_t, size_t> received_;  // messages per topic, warm-up included
 };
+
+template <typename M>
+ros::Subscriber subscribeArrivals(ros::NodeHandle& nh, const std::string& topic, const ros::TransportHints& hints,
+                                  Arrivals& arrivals, size_t k) {
+  const boost::function<void(const ros::MessageEvent<M const>&)> callback =
+      [&arrivals, k](const ros::MessageEvent<M const>& event) {
+        arrivals.record(event.getMessage()->header.stamp, k, event.getReceiptTime());
+      };
+  return nh.subscribe<M>(topic, 5, callback, ros::VoidConstPtr(), hints);
+}
 
 int run(int argc, char** argv) {
   Options o;
@@ -198,17 +221,11 @@ int run(int argc, char** argv) {
     const std::string topic = o.ns + "/" + o.outputs[k];
     const std::string& name = o.outputs[k];
     if (name == "disparity") {
-      subs.push_back(nh.subscribe<stereo_msgs::DisparityImage>(
-          topic, 5, [&arrivals, k](const stereo_msgs::DisparityImageConstPtr& m) { arrivals.record(m->header.stamp, k); },
-          ros::VoidConstPtr(), hints));
+      subs.push_back(subscribeArrivals<stereo_msgs::DisparityImage>(nh, topic, hints, arrivals, k));
     } else if (name.find("points") != std::string::npos) {
-      subs.push_back(nh.subscribe<sensor_msgs::PointCloud2>(
-          topic, 5, [&arrivals, k](const sensor_msgs::PointCloud2ConstPtr& m) { arrivals.record(m->header.stamp, k); },
-          ros::VoidConstPtr(), hints));
+      subs.push_back(subscribeArrivals<sensor_msgs::PointCloud2>(nh, topic, hints, arrivals, k));
     } else {
-      subs.push_back(nh.subscribe<sensor_msgs::Image>(
-          topic, 5, [&arrivals, k](const sensor_msgs::ImageConstPtr& m) { arrivals.record(m->header.stamp, k); },
-          ros::VoidConstPtr(), hints));
+      subs.push_back(subscribeArrivals<sensor_msgs::Image>(nh, topic, hints, arrivals, k));
     }
   }
   NodeProcessing processing;
@@ -263,29 +280,33 @@ int run(int argc, char** argv) {
   char processing_text[16] = "-";
   if (processing_ms >= 0) std::snprintf(processing_text, sizeof processing_text, "%.1f", processing_ms);
 
-  std::vector<double> latency_ms;
+  std::vector<double> latency_ms, handled_ms;
   uint64_t first_out = 0, last_out = 0;
   const size_t measured = total - first_measured;
   for (size_t k = first_measured; k < total; ++k) {
     const uint64_t done = arrivals.complete(stamps[k]);
     if (done == 0) continue;
     latency_ms.push_back(1e-6 * static_cast<double>(done - stamps[k]));
+    handled_ms.push_back(1e-6 * static_cast<double>(arrivals.complete(stamps[k], true) - stamps[k]));
     first_out = first_out ? std::min(first_out, done) : done;
     last_out = std::max(last_out, done);
   }
   const size_t out = latency_ms.size();
   const double out_rate = out > 1 ? 1e9 * static_cast<double>(out - 1) / static_cast<double>(last_out - first_out) : 0;
-  std::printf("%-34s %6.0f Hz %6zu %6zu %6.1f%% %8.1f Hz %7.1f %7.1f %7.1f %7.1f %7s\n", o.label.c_str(), o.rate,
+  std::printf("%-34s %6.0f Hz %6zu %6zu %6.1f%% %8.1f Hz %7.1f %7.1f %7.1f %7.1f %7s %7.1f\n", o.label.c_str(), o.rate,
               measured, out, 100.0 * static_cast<double>(out) / static_cast<double>(measured), out_rate,
               percentile(latency_ms, 50), percentile(latency_ms, 95), percentile(latency_ms, 99),
-              latency_ms.empty() ? 0.0 : *std::max_element(latency_ms.begin(), latency_ms.end()), processing_text);
+              latency_ms.empty() ? 0.0 : *std::max_element(latency_ms.begin(), latency_ms.end()), processing_text,
+              percentile(handled_ms, 99));
   if (late > total / 20) std::fprintf(stderr, "bdis_node_bench: %zu of %zu frames left late (> 2 ms)\n", late, total);
   if (!o.json.empty()) {
     std::ofstream js(o.json, std::ios::app);
     js << "{\"label\": \"" << o.label << "\", \"rate_hz\": " << o.rate << ", \"frames_sent\": " << measured
        << ", \"frames_out\": " << out << ", \"output_rate_hz\": " << out_rate
        << ", \"latency_ms_p50\": " << percentile(latency_ms, 50) << ", \"latency_ms_p95\": " << percentile(latency_ms, 95)
-       << ", \"latency_ms_p99\": " << percentile(latency_ms, 99) << ", \"late_sends\": " << late
+       << ", \"latency_ms_p99\": " << percentile(latency_ms, 99) << ", \"handled_latency_ms_p50\": "
+       << percentile(handled_ms, 50) << ", \"handled_latency_ms_p99\": " << percentile(handled_ms, 99)
+       << ", \"late_sends\": " << late
        << ", \"node_processing_ms\": " << (processing_ms >= 0 ? std::to_string(processing_ms) : "null")
        << ", \"frames_sent_total\": " << total << ", \"received_total\": {";
     for (size_t k = 0; k < o.outputs.size(); ++k)

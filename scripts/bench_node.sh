@@ -4,7 +4,9 @@
 # one core; disparity, depth and points2 subscribed) and, in the same run, into
 # stereo_image_proc (disparity + point_cloud2 nodelets, StereoBM and
 # StereoSGBM) as the ROS reference. Prints one table; latency = arrival of a
-# frame's last output at the bench minus its stamp; proc ms = the nodelet's own
+# frame's last output at the bench (roscpp's receipt time) minus its stamp;
+# cb p99 = the same up to the bench's callback, which adds the bench's own
+# deserialising and queueing on its core; proc ms = the nodelet's own
 # time per frame (median of its diagnostics' processing_ms_mean; decoding to
 # publishing, not the transport). --size WxH replays the
 # same scene rendered at that size instead (bdis_synth, 8 frames), e.g.
@@ -53,7 +55,7 @@ json="${JSON:-$work/results.jsonl}"
 
 cores="$(nproc)"
 node_core=$((cores > 1 ? 1 : 0))
-printf '%-34s %9s %6s %6s %7s %11s %7s %7s %7s %7s %7s\n' "system (${width}x${height}, node on 1 core)" "rate" "sent" "out" "out %" "out rate" "p50 ms" "p95 ms" "p99 ms" "max ms" "proc ms"
+printf '%-34s %9s %6s %6s %7s %11s %7s %7s %7s %7s %7s %7s\n' "system (${width}x${height}, node on 1 core)" "rate" "sent" "out" "out %" "out rate" "p50 ms" "p95 ms" "p99 ms" "max ms" "proc ms" "cb p99"
 run_one() {  # label, launch args...
   local label="$1"; shift
   local port attempt
