@@ -3,8 +3,9 @@
 // disagree on its disparity (the pixel mixes surfaces: a depth edge, an
 // occluder's rim, a guess in a flat region), where the search from the
 // right image lands elsewhere (left-right check), where the surface is too
-// slanted for a patch of one disparity (slant_cue.hpp) and where most of
-// its neighbourhood got no estimate (support_cue.hpp). Measured on generated
+// slanted for a patch of one disparity or, on strong texture, misfits it
+// (slant_cue.hpp) and where most of its neighbourhood got no estimate
+// (support_cue.hpp). Measured on generated
 // scenes and the colon sequences, each cue ranks the wrong estimates better
 // than the evidence alone; see docs/method.md for the figures.
 #pragma once
@@ -19,6 +20,14 @@ constexpr float kLeftRightHalvingPx = 0.75f;  ///< |left-right difference|
 /// outlier threshold a patch of one disparity no longer fits its footprint
 /// within it.
 constexpr float kSlantHalvingPx = 2.0f;
+/// Grey levels by which a patch of one disparity misfits a slanted, textured
+/// surface (its disparity change times the gradient RMS of its texture) at
+/// which the confidence halves: the slant cue's 2 px on texture with a
+/// gradient RMS of 2 grey levels per px, where, at the same confidence, the
+/// outlier rate rises again as a strong edge (a fold rim, an instrument's
+/// outline) dominates the patch and pulls its disparity to the edge's own.
+constexpr float kStrongTextureGreyPerPx = 2.0f;
+constexpr float kMisfitHalvingGrey = kSlantHalvingPx * kStrongTextureGreyPerPx;
 /// Share of a pixel's neighbourhood without an estimate at which the
 /// confidence halves: a quarter of what its covering patches reach.
 constexpr float kSupportHalvingShare = 0.25f;

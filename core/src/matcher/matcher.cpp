@@ -125,8 +125,10 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
                            detail::kLeftRightHalvingPx * level_px, out.disparity, out.confidence,
                            P.compute_variance ? &out.variance : nullptr);
   }
-  // 5. The slant cue: surfaces too slanted for a patch of one disparity.
-  m.slant.apply(out.disparity, P.patch_size, detail::kSlantHalvingPx * level_px, out.confidence);
+  // 5. The slant cue: surfaces too slanted for a patch of one disparity, or
+  //    slanted and so strongly textured that the patch misfits them.
+  m.slant.apply(out.disparity, m.pyramid.level(finest).left_gx, P.patch_size, detail::kSlantHalvingPx * level_px,
+                detail::kMisfitHalvingGrey, out.confidence);
   // 6. The support cue: estimates among holes.
   m.support.apply(out.disparity, m.pyramid.level(finest).left_valid, m.pyramid.level(finest).left, P.patch_size, detail::kSupportHalvingShare,
                   out.confidence);

@@ -31,19 +31,24 @@ inline float derivative(float before, float centre, float after, float inv_step)
 BDIS_ROW_LOOP
 void slantRow(int w, int r, const float* __restrict above, const float* __restrict mean,
               const float* __restrict below, const float* __restrict disparity, float inv_halving_sq,
+              const float* __restrict gradient_sq_sum, const float* __restrict area, float inv_misfit_halving_sq,
               float* __restrict confidence) {
   const float inv_step = 1.f / static_cast<float>(r);
   for (int x = 0; x < w; ++x) {
     const float gx = derivative(mean[x - r], mean[x], mean[x + r], inv_step);
     const float gy = derivative(above[x], mean[x], below[x], inv_step);
-    const float c = confidence[x] * agreement(gx * gx + gy * gy, inv_halving_sq);
+    const float slope_sq = gx * gx + gy * gy;
+    const float gradient_sq = gradient_sq_sum[x] / std::max(area[x], 1.f);
+    const float c = confidence[x] * agreement(slope_sq, inv_halving_sq) *
+                    agreement(slope_sq * gradient_sq, inv_misfit_halving_sq);
     confidence[x] = disparity[x] >= 0.f ? c : confidence[x];
   }
 }
 
 }  // namespace
 
-void SlantCue::apply(const cv::Mat1f& disparity, int patch_px, float halving, cv::Mat1f& confidence) {
+void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int patch_px, float halving,
+                     float misfit_halving, cv::Mat1f& confidence) {
   const int w = disparity.cols, h = disparity.rows;
   const int r = std::max(1, patch_px / 2);
   mean_.create(h + 1, w + 2 * r);
@@ -71,13 +76,29 @@ void SlantCue::apply(const cv::Mat1f& disparity, int patch_px, float halving, cv
     meanRow(w, sum, n, mean_[y] + r);
   }
 
-  // agreement(|grad D| * patch_px, halving) = agreement(|grad D|, halving / patch_px).
+  // The box sums of the squared gradient (A) and of the box's area (B).
+  gradient_sums_.begin(w, h, r);
+  float* gradient_sq = gradient_sums_.paddedA();
+  float* area = gradient_sums_.paddedB();
+  std::fill(area, area + w, 1.f);
+  for (int y = 0; y < h; ++y) {
+    const float* g = gradient[y];
+    for (int x = 0; x < w; ++x) gradient_sq[x] = g[x] * g[x];
+    gradient_sums_.sumRow(y);
+  }
+
+  // agreement(|grad D| * patch_px, halving) = agreement(|grad D|, halving / patch_px),
+  // and likewise for the misfit |grad D| * patch_px * g.
   const float slope_halving = halving / static_cast<float>(patch_px);
   const float inv_halving_sq = 1.f / (slope_halving * slope_halving);
+  const float slope_gradient_halving = misfit_halving / static_cast<float>(patch_px);
+  const float inv_misfit_halving_sq = 1.f / (slope_gradient_halving * slope_gradient_halving);
   const float* none = mean_[h] + r;
   for (int y = 0; y < h; ++y) {
+    const float *gradient_sq_sum, *box_area;
+    gradient_sums_.nextColumnSums(y, gradient_sq_sum, box_area);
     slantRow(w, r, y >= r ? mean_[y - r] + r : none, mean_[y] + r, y + r < h ? mean_[y + r] + r : none,
-             disparity[y], inv_halving_sq, confidence[y]);
+             disparity[y], inv_halving_sq, gradient_sq_sum, box_area, inv_misfit_halving_sq, confidence[y]);
   }
 }
 

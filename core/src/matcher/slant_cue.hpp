@@ -5,7 +5,11 @@
 // fits the patch and its optimum is less trustworthy than its posterior
 // says. The slope is that of the surface around the pixel: the derivative of
 // the disparity averaged over a patch-sized box, not of the pixel's
-// neighbours, whose small jitter says nothing about the slant.
+// neighbours, whose small jitter says nothing about the slant. On strong
+// texture a smaller slant already misfits: the patch's grey levels at its
+// rim are off by about its disparity change times the texture's gradient,
+// and a strong edge inside it (a fold rim, an instrument's outline) then
+// pulls the match to the edge's own disparity.
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -23,12 +27,17 @@ class SlantCue {
   /// the central difference, `patch_px` / 2 to each side, of the mean of the
   /// estimates in a box of side `patch_px` + 1 around each pixel (one-sided
   /// where one side's box holds no estimate, 0 along an axis where neither
-  /// does). Buffers are kept for the next frame of the same size; the box
+  /// does). Then by agreement() of the misfit, |grad D| * `patch_px` * g,
+  /// with `misfit_halving` (grey levels), g the RMS of `gradient` (the left
+  /// image's horizontal gradient, grey levels per level px) over the same
+  /// box. Buffers are kept for the next frame of the same size; the box
   /// sums are separable, in row loops that vectorise.
-  void apply(const cv::Mat1f& disparity, int patch_px, float halving, cv::Mat1f& confidence);
+  void apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int patch_px, float halving,
+             float misfit_halving, cv::Mat1f& confidence);
 
  private:
-  BoxSums sums_;  ///< of the estimates and of their count
+  BoxSums sums_;           ///< of the estimates and of their count
+  BoxSums gradient_sums_;  ///< of the squared gradient and of the box's area
   /// Box mean of the estimates, kNoDisparity where the box has none; r
   /// columns of kNoDisparity each side, and one all-kNoDisparity row last
   /// (stands in for the rows above the first and below the last).

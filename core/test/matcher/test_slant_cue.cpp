@@ -1,4 +1,5 @@
-// The slant cue (slant_cue.hpp) on hand-made disparity maps of known slope.
+// The slant cue (slant_cue.hpp) on hand-made disparity maps of known slope
+// and gradient maps of known texture.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,6 +14,12 @@ using bdis::detail::SlantCue;
 
 constexpr int kPatch = 8;        // level px; the box reaches 4 px to each side
 constexpr float kHalving = 1.f;  // level px of disparity across a patch
+constexpr float kMisfitHalving = 4.f;  // grey levels
+
+/// The cue on an untextured image (gradient 0): the slant alone.
+void applySlant(SlantCue& cue, const cv::Mat1f& disparity, cv::Mat1f& confidence) {
+  cue.apply(disparity, cv::Mat1f(disparity.size(), 0.f), kPatch, kHalving, kMisfitHalving, confidence);
+}
 
 /// d = 30 + gx * x + gy * y everywhere, confidence 1.
 void plane(int w, int h, float gx, float gy, cv::Mat1f& disparity, cv::Mat1f& confidence) {
@@ -35,7 +42,8 @@ float slopeOf(float c) { return kHalving / static_cast<float>(kPatch) * std::sqr
 TEST(SlantCue, FrontoParallelSurfaceKeepsItsConfidence) {
   cv::Mat1f d, c;
   plane(64, 48, 0.f, 0.f, d, c);
-  SlantCue().apply(d, kPatch, kHalving, c);
+  SlantCue cue;
+  applySlant(cue, d, c);
   EXPECT_EQ(cv::countNonZero(c != 1.f), 0);
 }
 
@@ -44,7 +52,7 @@ TEST(SlantCue, InteriorOfAPlaneGetsTheFactorOfItsSlope) {
   for (const auto& [gx, gy] : {std::pair<float, float>{0.25f, 0.f}, {0.f, -0.25f}, {0.1f, 0.2f}, {0.05f, 0.f}}) {
     cv::Mat1f d, c;
     plane(64, 48, gx, gy, d, c);
-    cue.apply(d, kPatch, kHalving, c);
+    applySlant(cue, d, c);
     const float want = expectedFactor(std::hypot(gx, gy));
     // Pixels whose boxes and neighbours' boxes lie inside the map: 2 box radii from the border.
     for (int y = 8; y < 40; ++y) {
@@ -61,7 +69,7 @@ TEST(SlantCue, StrongerSlopeLowersTheConfidenceMore) {
   for (float g : {0.02f, 0.06f, 0.12f, 0.25f, 0.5f}) {
     cv::Mat1f d, c;
     plane(40, 40, g, 0.f, d, c);
-    cue.apply(d, kPatch, kHalving, c);
+    applySlant(cue, d, c);
     EXPECT_LT(c(20, 20), previous) << "slope " << g;
     previous = c(20, 20);
   }
@@ -75,7 +83,8 @@ TEST(SlantCue, BordersAndHolesSeeThePlanesSlopeFromOneSide) {
   d(cv::Rect(24, 10, 12, 20)).setTo(kNoDisparity);  // a hole
   c(cv::Rect(24, 10, 12, 20)).setTo(0.f);
   cv::Mat1f before = c.clone();
-  SlantCue().apply(d, kPatch, kHalving, c);
+  SlantCue cue;
+  applySlant(cue, d, c);
   for (int y = 0; y < 48; ++y) {
     for (int x = 0; x < 64; ++x) {
       if (d(y, x) < 0.f) {
@@ -96,7 +105,8 @@ TEST(SlantCue, BordersAndHolesSeeThePlanesSlopeFromOneSide) {
 TEST(SlantCue, DepthStepLowersTheConfidenceAlongItOnly) {
   cv::Mat1f d(40, 64, 20.f), c(40, 64, 1.f);
   d(cv::Rect(32, 0, 32, 40)).setTo(40.f);  // a step of 20 px at x = 32
-  SlantCue().apply(d, kPatch, kHalving, c);
+  SlantCue cue;
+  applySlant(cue, d, c);
   EXPECT_LT(c(20, 31), 0.05f);
   EXPECT_LT(c(20, 32), 0.05f);
   EXPECT_EQ(c(20, 10), 1.f);  // more than two box radii away
@@ -106,15 +116,77 @@ TEST(SlantCue, DepthStepLowersTheConfidenceAlongItOnly) {
 TEST(SlantCue, EmptyMapAndMapsSmallerThanABox) {
   SlantCue cue;
   cv::Mat1f d(5, 3, kNoDisparity), c(5, 3, 0.f);
-  cue.apply(d, kPatch, kHalving, c);
+  cue.apply(d, cv::Mat1f(5, 3, 50.f), kPatch, kHalving, kMisfitHalving, c);
   EXPECT_EQ(cv::countNonZero(c), 0);
   cv::Mat1f d2, c2;
   plane(3, 5, 0.5f, 0.f, d2, c2);
-  cue.apply(d2, kPatch, kHalving, c2);
+  applySlant(cue, d2, c2);
   for (float v : c2) {
     EXPECT_TRUE(std::isfinite(v));
     EXPECT_GT(v, 0.f);
     EXPECT_LE(v, 1.f);
+  }
+}
+
+/// The misfit factor of a slope of magnitude s on texture of gradient RMS g.
+float expectedMisfitFactor(float s, float g) {
+  const float misfit = s * static_cast<float>(kPatch) * g;  // grey levels at the patch's rim
+  return 1.f / (1.f + (misfit / kMisfitHalving) * (misfit / kMisfitHalving));
+}
+
+TEST(SlantCue, TextureOnAFrontoParallelSurfaceKeepsItsConfidence) {
+  cv::Mat1f d, c;
+  plane(64, 48, 0.f, 0.f, d, c);
+  SlantCue().apply(d, cv::Mat1f(48, 64, 30.f), kPatch, kHalving, kMisfitHalving, c);
+  EXPECT_EQ(cv::countNonZero(c != 1.f), 0);
+}
+
+TEST(SlantCue, TexturedSlantGetsTheFactorOfItsMisfit) {
+  SlantCue cue;
+  for (const auto& [slope, g] : {std::pair<float, float>{0.05f, 2.f}, {0.05f, 10.f}, {0.1f, 4.f}, {0.02f, 20.f}}) {
+    cv::Mat1f d, c;
+    plane(64, 48, 0.f, slope, d, c);
+    cv::Mat1f gradient(48, 64, g);
+    cue.apply(d, gradient, kPatch, kHalving, kMisfitHalving, c);
+    const float want = expectedFactor(slope) * expectedMisfitFactor(slope, g);
+    for (int y = 8; y < 40; ++y) {
+      for (int x = 8; x < 56; ++x) {
+        ASSERT_NEAR(c(y, x), want, 1e-4f) << "slope " << slope << " gradient " << g << " at " << x << "," << y;
+      }
+    }
+  }
+  // 0.05 px per px over an 8 px patch on a gradient of 10 grey levels per px
+  // misfits by 4 grey levels at the rim: the misfit alone halves the confidence.
+  EXPECT_NEAR(expectedMisfitFactor(0.05f, 10.f), 0.5f, 1e-6f);
+}
+
+TEST(SlantCue, TheMisfitTakesTheGradientsRmsNotItsMean) {
+  // Stripes whose gradient alternates +g and -g (mean 0) misfit as much as a
+  // ramp of gradient g: a shifted patch is off by g per px of shift either way.
+  const float slope = 0.08f, g = 8.f;
+  cv::Mat1f d, ramp_confidence, stripe_confidence;
+  plane(64, 48, slope, 0.f, d, ramp_confidence);
+  stripe_confidence = ramp_confidence.clone();
+  cv::Mat1f stripes(48, 64);
+  for (int y = 0; y < 48; ++y) {
+    for (int x = 0; x < 64; ++x) stripes(y, x) = (x / 2) % 2 == 0 ? g : -g;
+  }
+  SlantCue cue;
+  cue.apply(d, cv::Mat1f(48, 64, g), kPatch, kHalving, kMisfitHalving, ramp_confidence);
+  cue.apply(d, stripes, kPatch, kHalving, kMisfitHalving, stripe_confidence);
+  EXPECT_LT(ramp_confidence(24, 32), 0.5f * expectedFactor(slope));
+  EXPECT_NEAR(stripe_confidence(24, 32), ramp_confidence(24, 32), 1e-4f);
+}
+
+TEST(SlantCue, StrongerTextureOnTheSameSlantLowersTheConfidenceMore) {
+  SlantCue cue;
+  float previous = 1.f;
+  for (float g : {0.f, 1.f, 3.f, 8.f, 20.f}) {
+    cv::Mat1f d, c;
+    plane(40, 40, 0.06f, 0.f, d, c);
+    cue.apply(d, cv::Mat1f(40, 40, g), kPatch, kHalving, kMisfitHalving, c);
+    if (g > 0.f) EXPECT_LT(c(20, 20), previous) << "gradient " << g;
+    previous = c(20, 20);
   }
 }
 
