@@ -9,7 +9,10 @@
 // NS/{left,right}/{image_rect,camera_info}), so the same run measures
 // bdis_stereo and stereo_image_proc. Also reports the median of the node's
 // own processing_ms_mean from /diagnostics (bdis_stereo only: decoding to
-// publishing, without the transport). Prints one table row; --json appends.
+// publishing, without the transport). With --node-core, the share of the
+// time that core was busy while the measured frames were sent (/proc/stat:
+// user, system, interrupts; everything the node and the kernel did for it).
+// Prints one table row; --json appends.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -39,6 +42,7 @@ constexpr const char* kUsage = R"(usage: bdis_node_bench --bag FILE --label NAME
   --seconds S        measured duration (default 20), after --warmup seconds (default 3)
   --frames N         send exactly N frames instead (after the warm-up), e.g. for a soak test
   --outputs LIST     subscribed outputs, relative to NS (default disparity,depth/image_rect,points2)
+  --node-core N      report how busy CPU core N (the node's) was while measuring (Linux)
   --json FILE        append the result as one JSON line
 )";
 
@@ -51,8 +55,40 @@ struct Options {
   std::string bag, label, ns = "/stereo", bag_ns = "/stereo", json;
   double rate = 60, seconds = 20, warmup = 3;
   size_t frames = 0;  // 0: seconds * rate
+  int node_core = -1;  // -1: not reported
   std::vector<std::string> outputs = {"disparity", "depth/image_rect", "points2"};
 };
+
+/// Busy and total jiffies of one core from /proc/stat; total 0 where it
+/// cannot be read (not Linux, no such core).
+struct CoreTimes {
+  unsigned long long busy = 0, total = 0;
+};
+
+CoreTimes readCoreTimes(int core) {
+  CoreTimes t;
+  std::ifstream stat("/proc/stat");
+  const std::string name = "cpu" + std::to_string(core);
+  for (std::string line; std::getline(stat, line);) {
+    std::istringstream fields(line);
+    std::string label;
+    fields >> label;
+    if (label != name) continue;
+    // user nice system idle iowait irq softirq steal (guest is within user)
+    unsigned long long v[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    for (unsigned long long& x : v) fields >> x;
+    t.total = v[0] + v[1] + v[2] + v[3] + v[4] + v[5] + v[6] + v[7];
+    t.busy = t.total - v[3] - v[4];
+    break;
+  }
+  return t;
+}
+
+/// Busy share of the core between two readings; negative if unknown.
+double busyShare(const CoreTimes& from, const CoreTimes& to) {
+  if (from.total == 0 || to.total <= from.total) return -1;
+  return static_cast<double>(to.busy - from.busy) / static_cast<double>(to.total - from.total);
+}
 
 std::vector<std::string> split(const std::string& s) {
   std::vector<std::string> out;
@@ -198,6 +234,7 @@ int run(int argc, char** argv) {
     else if (a == "--warmup") o.warmup = std::stod(value());
     else if (a == "--frames") o.frames = std::stoul(value());
     else if (a == "--outputs") o.outputs = split(value());
+    else if (a == "--node-core") o.node_core = std::stoi(value());
     else if (a == "--json") o.json = value();
     else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
     else throw std::invalid_argument("unknown option " + a);
@@ -257,6 +294,7 @@ int run(int argc, char** argv) {
   const Clock::time_point t0 = Clock::now() + std::chrono::milliseconds(200);
   size_t late = 0;
   ros::WallTime measuring_from;
+  CoreTimes core_from;
   for (size_t k = 0; k < total && ros::ok(); ++k) {
     const auto due = t0 + std::chrono::nanoseconds(static_cast<int64_t>(1e9 * static_cast<double>(k) / o.rate));
     if (Clock::now() > due + std::chrono::milliseconds(2)) ++late;
@@ -272,8 +310,14 @@ int run(int argc, char** argv) {
     pub_l.publish(l);
     pub_r.publish(r);
     stamps[k] = stamp.toNSec();
-    if (k == first_measured) measuring_from = ros::WallTime::now();
+    if (k == first_measured) {
+      measuring_from = ros::WallTime::now();
+      if (o.node_core >= 0) core_from = readCoreTimes(o.node_core);
+    }
   }
+  const double core_busy = o.node_core >= 0 ? busyShare(core_from, readCoreTimes(o.node_core)) : -1;
+  char core_text[16] = "-";
+  if (core_busy >= 0) std::snprintf(core_text, sizeof core_text, "%.0f%%", 100 * core_busy);
   ros::WallDuration(1.0).sleep();  // the last frames are still in the pipeline
   // A diagnostics period that began before the measured frames is left out.
   const double processing_ms = processing.median(measuring_from + ros::WallDuration(1.0), ros::WallTime::now());
@@ -293,11 +337,11 @@ int run(int argc, char** argv) {
   }
   const size_t out = latency_ms.size();
   const double out_rate = out > 1 ? 1e9 * static_cast<double>(out - 1) / static_cast<double>(last_out - first_out) : 0;
-  std::printf("%-34s %6.0f Hz %6zu %6zu %6.1f%% %8.1f Hz %7.1f %7.1f %7.1f %7.1f %7s %7.1f\n", o.label.c_str(), o.rate,
+  std::printf("%-34s %6.0f Hz %6zu %6zu %6.1f%% %8.1f Hz %7.1f %7.1f %7.1f %7.1f %7s %7.1f %6s\n", o.label.c_str(), o.rate,
               measured, out, 100.0 * static_cast<double>(out) / static_cast<double>(measured), out_rate,
               percentile(latency_ms, 50), percentile(latency_ms, 95), percentile(latency_ms, 99),
               latency_ms.empty() ? 0.0 : *std::max_element(latency_ms.begin(), latency_ms.end()), processing_text,
-              percentile(handled_ms, 99));
+              percentile(handled_ms, 99), core_text);
   if (late > total / 20) std::fprintf(stderr, "bdis_node_bench: %zu of %zu frames left late (> 2 ms)\n", late, total);
   if (!o.json.empty()) {
     std::ofstream js(o.json, std::ios::app);
@@ -308,6 +352,7 @@ int run(int argc, char** argv) {
        << percentile(handled_ms, 50) << ", \"handled_latency_ms_p99\": " << percentile(handled_ms, 99)
        << ", \"late_sends\": " << late
        << ", \"node_processing_ms\": " << (processing_ms >= 0 ? std::to_string(processing_ms) : "null")
+       << ", \"node_core_busy\": " << (core_busy >= 0 ? std::to_string(core_busy) : "null")
        << ", \"frames_sent_total\": " << total << ", \"received_total\": {";
     for (size_t k = 0; k < o.outputs.size(); ++k)
       js << (k ? ", " : "") << "\"" << o.outputs[k] << "\": " << arrivals.received(k);

@@ -8,7 +8,8 @@
 # cb p99 = the same up to the bench's callback, which adds the bench's own
 # deserialising and queueing on its core; proc ms = the nodelet's own
 # time per frame (median of its diagnostics' processing_ms_mean; decoding to
-# publishing, not the transport). --size WxH replays the
+# publishing, not the transport); core = how busy the node's core was while
+# measuring (/proc/stat, kernel work for it included). --size WxH replays the
 # same scene rendered at that size instead (bdis_synth, 8 frames), e.g.
 # --size 1920x1080 --rate 30 for an HD endoscope.
 #   scripts/bench_node.sh [--rate HZ] [--seconds S] [--size WxH] [--json FILE]
@@ -55,7 +56,7 @@ json="${JSON:-$work/results.jsonl}"
 
 cores="$(nproc)"
 node_core=$((cores > 1 ? 1 : 0))
-printf '%-34s %9s %6s %6s %7s %11s %7s %7s %7s %7s %7s %7s\n' "system (${width}x${height}, node on 1 core)" "rate" "sent" "out" "out %" "out rate" "p50 ms" "p95 ms" "p99 ms" "max ms" "proc ms" "cb p99"
+printf '%-34s %9s %6s %6s %7s %11s %7s %7s %7s %7s %7s %7s %6s\n' "system (${width}x${height}, node on 1 core)" "rate" "sent" "out" "out %" "out rate" "p50 ms" "p95 ms" "p99 ms" "max ms" "proc ms" "cb p99" "core"
 run_one() {  # label, launch args...
   local label="$1"; shift
   local port attempt
