@@ -56,6 +56,7 @@
 #endif
 
 #include "bdis_stereo/evaluation.hpp"
+#include "bdis_stereo/geometry.hpp"
 #include "bdis_stereo/matcher.hpp"
 #include "bdis_stereo/synthetic_scene.hpp"
 
@@ -223,6 +224,44 @@ void scalingSizes(benchmark::internal::Benchmark* b) {
 BENCHMARK(BM_ScalingOpenCvDisFast)->Apply(scalingSizes);
 BENCHMARK(BM_ScalingBdis)->Apply(scalingSizes);
 BENCHMARK(BM_ScalingBdisDefaultLevels)->Apply(scalingSizes);
+
+/// A disparity map of `width` x `height`: a ramp of 5-120 px with every 7th pixel unknown.
+cv::Mat1f rampDisparity(int width, int height) {
+  cv::Mat1f d(height, width);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      d(y, x) = (x + y) % 7 == 0 ? bdis::kNoDisparity : 5.f + 115.f * static_cast<float>(x) / static_cast<float>(width);
+    }
+  }
+  return d;
+}
+
+/// Depth from disparity (the node's depth image, and points2's source), per frame size.
+void BM_DisparityToDepth(benchmark::State& state) {
+  const cv::Mat1f d = rampDisparity(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const bdis::StereoCamera camera = bdis::StereoCamera::symmetric(520, 520, 320, 240, 0.005);
+  cv::Mat depth;
+  for (auto _ : state) {
+    bdis::disparityToDepth(d, camera, depth);
+    benchmark::DoNotOptimize(depth.data);
+  }
+  sizeCounters(state, d.cols, d.rows);
+}
+
+/// The reference for it: OpenCV's element-wise division alone (no unknowns handled).
+void BM_OpenCvDivide(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const cv::Mat1f d = rampDisparity(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  cv::Mat depth;
+  for (auto _ : state) {
+    cv::divide(520.0 * 0.005, d, depth);
+    benchmark::DoNotOptimize(depth.data);
+  }
+  sizeCounters(state, d.cols, d.rows);
+}
+
+BENCHMARK(BM_OpenCvDivide)->Apply(scalingSizes);
+BENCHMARK(BM_DisparityToDepth)->Apply(scalingSizes);
 
 // ---- --table: one table of medians of thread CPU time -------------------------
 

@@ -27,11 +27,11 @@ void requireDisparity(const cv::Mat& disparity) {
 // StereoCamera::depth over a row, without branches so that it vectorises
 // (the same operations in the same order: the same values).
 BDIS_ROW_LOOP
-void depthRow(const float* d, int width, double offset, double fx_baseline, float* z) {
+void depthRow(const float* __restrict d, int width, float offset, float fx_baseline, float* __restrict z) {
   for (int x = 0; x < width; ++x) {
-    const double shifted = static_cast<double>(d[x]) - offset;
-    const float depth = static_cast<float>(fx_baseline / shifted);
-    z[x] = d[x] >= 0.f && shifted > 0.0 ? depth : kNaN;
+    const float shifted = d[x] - offset;
+    const float depth = fx_baseline / shifted;
+    z[x] = d[x] >= 0.f && shifted > 0.f ? depth : kNaN;
   }
 }
 
@@ -69,9 +69,11 @@ void StereoCamera::validate() const {
 
 float StereoCamera::depth(float disparity) const {
   if (!(disparity >= 0.f)) return kNaN;  // also catches NaN
-  const double shifted = static_cast<double>(disparity) - (cx - cx_right);
-  if (shifted <= 0.0) return kNaN;  // at or beyond infinity
-  return static_cast<float>(fx * baseline / shifted);
+  // In float, as depthRow: four or eight at a time there, 1 ULP from the
+  // double quotient (a third of the time of a 1920x1080 frame's in double).
+  const float shifted = disparity - static_cast<float>(cx - cx_right);
+  if (!(shifted > 0.f)) return kNaN;  // at or beyond infinity
+  return static_cast<float>(fx * baseline) / shifted;
 }
 
 StereoCamera StereoCamera::subsampled(int stride) const {
@@ -133,8 +135,8 @@ void disparityToDepth(const cv::Mat& disparity, const StereoCamera& camera, cv::
   requireDisparity(disparity);
   camera.validate();
   depth.create(disparity.size(), CV_32FC1);
-  const double offset = camera.cx - camera.cx_right;
-  const double fx_baseline = camera.fx * camera.baseline;
+  const float offset = static_cast<float>(camera.cx - camera.cx_right);
+  const float fx_baseline = static_cast<float>(camera.fx * camera.baseline);
   for (int y = 0; y < disparity.rows; ++y) {
     depthRow(disparity.ptr<float>(y), disparity.cols, offset, fx_baseline, depth.ptr<float>(y));
   }
