@@ -29,10 +29,11 @@ void subtractRow(int w, const float* __restrict row, float* __restrict sum) {
 
 }  // namespace
 
-void BoxSums::begin(int w, int h, int r) {
+void BoxSums::begin(int w, int h, int r, bool with_b) {
   w_ = w;
   h_ = h;
   r_ = r;
+  with_b_ = with_b;
   // Only the padding is set here; every other element is written per row.
   padded_a_.resize(static_cast<size_t>(w + 2 * r));
   padded_b_.resize(static_cast<size_t>(w + 2 * r));
@@ -41,14 +42,14 @@ void BoxSums::begin(int w, int h, int r) {
     std::fill(padded->end() - r, padded->end(), 0.f);
   }
   row_a_.create(h, w);
-  row_b_.create(h, w);
+  if (with_b) row_b_.create(h, w);
   column_a_.resize(static_cast<size_t>(w));
   column_b_.resize(static_cast<size_t>(w));
 }
 
 void BoxSums::sumRow(int y) {
   boxRow(w_, 2 * r_ + 1, padded_a_.data(), row_a_[y]);
-  boxRow(w_, 2 * r_ + 1, padded_b_.data(), row_b_[y]);
+  if (with_b_) boxRow(w_, 2 * r_ + 1, padded_b_.data(), row_b_[y]);
 }
 
 void BoxSums::nextColumnSums(int y, const float*& a, const float*& b) {
@@ -57,19 +58,19 @@ void BoxSums::nextColumnSums(int y, const float*& a, const float*& b) {
     std::fill(column_b_.begin(), column_b_.end(), 0.f);
     for (int j = 0; j < std::min(h_, r_); ++j) {
       addRow(w_, row_a_[j], column_a_.data());
-      addRow(w_, row_b_[j], column_b_.data());
+      if (with_b_) addRow(w_, row_b_[j], column_b_.data());
     }
   }
   if (y + r_ < h_) {
     addRow(w_, row_a_[y + r_], column_a_.data());
-    addRow(w_, row_b_[y + r_], column_b_.data());
+    if (with_b_) addRow(w_, row_b_[y + r_], column_b_.data());
   }
   if (y - r_ - 1 >= 0) {
     subtractRow(w_, row_a_[y - r_ - 1], column_a_.data());
-    subtractRow(w_, row_b_[y - r_ - 1], column_b_.data());
+    if (with_b_) subtractRow(w_, row_b_[y - r_ - 1], column_b_.data());
   }
   a = column_a_.data();
-  b = column_b_.data();
+  b = with_b_ ? column_b_.data() : nullptr;
 }
 
 }  // namespace detail

@@ -13,10 +13,11 @@ namespace detail {
 /// The sums of two maps A and B over a (2r+1) x (2r+1) box around each pixel,
 /// the box clipped to the map. Use: begin(); for each row y, fill paddedA()
 /// and paddedB() at columns 0..w-1 and call sumRow(y); then for each row y in
-/// order, nextColumnSums(y) gives the box sums of row y.
+/// order, nextColumnSums(y) gives the box sums of row y. With begin(..., false)
+/// only A is summed (paddedB() is not to be used, its sums come back null).
 class BoxSums {
  public:
-  void begin(int w, int h, int r);
+  void begin(int w, int h, int r, bool with_b = true);
   /// Column 0 of the row scratch: r zero columns lie before it and after w.
   float* paddedA() { return padded_a_.data() + r_; }
   float* paddedB() { return padded_b_.data() + r_; }
@@ -29,6 +30,7 @@ class BoxSums {
 
  private:
   int w_ = 0, h_ = 0, r_ = 0;
+  bool with_b_ = true;
   std::vector<float> padded_a_, padded_b_;  ///< a row, r zeros each side
   cv::Mat1f row_a_, row_b_;                 ///< the rows' horizontal box sums
   std::vector<float> column_a_, column_b_;  ///< one row of box sums

@@ -26,19 +26,24 @@ inline float derivative(float before, float centre, float after, float inv_step)
   return (hi - lo) * halves * inv_step;
 }
 
+/// How many of the indices i - r .. i + r lie in 0 .. n-1.
+inline float clippedSpan(int i, int n, int r) {
+  return static_cast<float>(std::min(i + r, n - 1) - std::max(i - r, 0) + 1);
+}
+
 /// `mean`, `above` and `below` point at column 0 of padded mean rows (r
 /// columns of kNoDisparity before and after).
 BDIS_ROW_LOOP
 void slantRow(int w, int r, const float* __restrict above, const float* __restrict mean,
               const float* __restrict below, const float* __restrict disparity, float inv_halving_sq,
-              const float* __restrict gradient_sq_sum, const float* __restrict area, float inv_misfit_halving_sq,
-              float* __restrict confidence) {
+              const float* __restrict gradient_sq_sum, const float* __restrict box_columns, float box_rows,
+              float inv_misfit_halving_sq, float* __restrict confidence) {
   const float inv_step = 1.f / static_cast<float>(r);
   for (int x = 0; x < w; ++x) {
     const float gx = derivative(mean[x - r], mean[x], mean[x + r], inv_step);
     const float gy = derivative(above[x], mean[x], below[x], inv_step);
     const float slope_sq = gx * gx + gy * gy;
-    const float gradient_sq = gradient_sq_sum[x] / std::max(area[x], 1.f);
+    const float gradient_sq = gradient_sq_sum[x] / (box_columns[x] * box_rows);
     const float c = confidence[x] * agreement(slope_sq, inv_halving_sq) *
                     agreement(slope_sq * gradient_sq, inv_misfit_halving_sq);
     confidence[x] = disparity[x] >= 0.f ? c : confidence[x];
@@ -76,11 +81,12 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
     meanRow(w, sum, n, mean_[y] + r);
   }
 
-  // The box sums of the squared gradient (A) and of the box's area (B).
-  gradient_sums_.begin(w, h, r);
+  // The box sums of the squared gradient; the clipped box's area is
+  // box_columns_[x] * clippedSpan(y), exact in float.
+  gradient_sums_.begin(w, h, r, /*with_b=*/false);
   float* gradient_sq = gradient_sums_.paddedA();
-  float* area = gradient_sums_.paddedB();
-  std::fill(area, area + w, 1.f);
+  box_columns_.resize(static_cast<size_t>(w));
+  for (int x = 0; x < w; ++x) box_columns_[static_cast<size_t>(x)] = clippedSpan(x, w, r);
   for (int y = 0; y < h; ++y) {
     const float* g = gradient[y];
     for (int x = 0; x < w; ++x) gradient_sq[x] = g[x] * g[x];
@@ -95,10 +101,11 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
   const float inv_misfit_halving_sq = 1.f / (slope_gradient_halving * slope_gradient_halving);
   const float* none = mean_[h] + r;
   for (int y = 0; y < h; ++y) {
-    const float *gradient_sq_sum, *box_area;
-    gradient_sums_.nextColumnSums(y, gradient_sq_sum, box_area);
+    const float *gradient_sq_sum, *unused;
+    gradient_sums_.nextColumnSums(y, gradient_sq_sum, unused);
     slantRow(w, r, y >= r ? mean_[y - r] + r : none, mean_[y] + r, y + r < h ? mean_[y + r] + r : none,
-             disparity[y], inv_halving_sq, gradient_sq_sum, box_area, inv_misfit_halving_sq, confidence[y]);
+             disparity[y], inv_halving_sq, gradient_sq_sum, box_columns_.data(), clippedSpan(y, h, r),
+             inv_misfit_halving_sq, confidence[y]);
   }
 }
 

@@ -12,6 +12,8 @@
 // pulls the match to the edge's own disparity.
 #pragma once
 
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 #include "box_sums.hpp"
@@ -37,7 +39,8 @@ class SlantCue {
 
  private:
   BoxSums sums_;           ///< of the estimates and of their count
-  BoxSums gradient_sums_;  ///< of the squared gradient and of the box's area
+  BoxSums gradient_sums_;            ///< of the squared gradient
+  std::vector<float> box_columns_;  ///< columns of each column's box, clipped to the map
   /// Box mean of the estimates, kNoDisparity where the box has none; r
   /// columns of kNoDisparity each side, and one all-kNoDisparity row last
   /// (stands in for the rows above the first and below the last).

@@ -185,7 +185,9 @@ TEST(SlantCue, StrongerTextureOnTheSameSlantLowersTheConfidenceMore) {
     cv::Mat1f d, c;
     plane(40, 40, 0.06f, 0.f, d, c);
     cue.apply(d, cv::Mat1f(40, 40, g), kPatch, kHalving, kMisfitHalving, c);
-    if (g > 0.f) EXPECT_LT(c(20, 20), previous) << "gradient " << g;
+    if (g > 0.f) {
+      EXPECT_LT(c(20, 20), previous) << "gradient " << g;
+    }
     previous = c(20, 20);
   }
 }
