@@ -98,6 +98,11 @@ const std::vector<ParamField>& paramFields() {
             "patch overlap of the left-right check's search from the right image (finest level)"),
       field("compute_variance", &MatcherParams::compute_variance, 0, 1,
             "also compute the per-pixel disparity variance (px^2), published as variance"),
+      field("refinement_iterations", &MatcherParams::refinement_iterations, 0, 20,
+            "variational refinement of the finest level's estimates (DIS's last stage, along x): "
+            "fixed-point steps; 0 = off"),
+      field("refinement_smoothness", &MatcherParams::refinement_smoothness, 0.0, 1000.0,
+            "alpha: weight of the variational refinement's smoothness term against its data term"),
   };
   return fields;
 }

@@ -50,6 +50,10 @@ struct MatcherParams {
   float lr_check_tolerance = 3.f;  ///< left-right check, full-resolution px; 0 = off
   float lr_check_overlap = 0.4f;   ///< patch overlap of the check's search from the right image
   bool compute_variance = false;   ///< also output per-pixel disparity variance (px^2)
+  // Variational refinement of the finest level (DIS's last stage, along x):
+  // per pixel, the disparity its own grey levels and its neighbours agree on.
+  int refinement_iterations = 0;       ///< fixed-point steps; 0 = off (accurate: 2)
+  float refinement_smoothness = 20.f;  ///< alpha: weight of the smoothness term
 
   /// Throws std::invalid_argument naming the first bad field and its range.
   void validate() const;

@@ -17,6 +17,7 @@
 #include "slant_cue.hpp"
 #include "support_cue.hpp"
 #include "upsampling.hpp"
+#include "variational_refinement.hpp"
 
 namespace bdis {
 
@@ -72,6 +73,7 @@ struct Matcher::Impl {
   std::vector<detail::SearchBand> bands;    ///< the finest level's search order
   detail::SlantCue slant;
   detail::SupportCue support;
+  detail::VariationalRefinement refinement;
   detail::Upsampler upsampler;
 
   /// The finest level of both searches, band by band in the order of
@@ -89,6 +91,7 @@ void Matcher::setParams(const MatcherParams& params) {
   impl_->params = params;
   impl_->left.configure(params, /*keep_confidence=*/true);
   impl_->check.configure(checkParams(params), /*keep_confidence=*/false);
+  impl_->refinement.configure(params.refinement_iterations, params.refinement_smoothness);
 }
 
 const MatcherParams& Matcher::params() const { return impl_->params; }
@@ -125,14 +128,16 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
                            detail::kLeftRightHalvingPx * level_px, out.disparity, out.confidence,
                            P.compute_variance ? &out.variance : nullptr);
   }
-  // 5. The slant cue: surfaces too slanted for a patch of one disparity, or
+  // 5. Variational refinement of the estimates the check kept.
+  m.refinement.apply(m.pyramid.level(finest), m.left.aboveFinest(), out.disparity);
+  // 6. The slant cue: surfaces too slanted for a patch of one disparity, or
   //    slanted and so strongly textured that the patch misfits them.
   m.slant.apply(out.disparity, m.pyramid.level(finest).left_gx, P.patch_size, detail::kSlantHalvingPx * level_px,
                 detail::kMisfitHalvingGrey, out.confidence);
-  // 6. The support cue: estimates among holes.
+  // 7. The support cue: estimates among holes.
   m.support.apply(out.disparity, m.pyramid.level(finest).left_valid, m.pyramid.level(finest).left, P.patch_size, detail::kSupportHalvingShare,
                   out.confidence);
-  // 7. Upsampling to the input resolution.
+  // 8. Upsampling to the input resolution.
   m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, result);
   if (P.compute_variance) {
     m.upsampler.upsampleVariance(out, finest, result);

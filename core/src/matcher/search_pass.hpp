@@ -41,6 +41,8 @@ class SearchPass {
   void fuseFinestLevel();
   /// The finest level's results (after fuseFinestLevel).
   LevelMaps& finest() { return finest_; }
+  /// The dense disparity of the level above the finest, which started it.
+  const cv::Mat1f& aboveFinest() const { return initialisation_[static_cast<size_t>(finest_level_) + 1]; }
   const LevelMaps& finest() const { return finest_; }
 
  private:

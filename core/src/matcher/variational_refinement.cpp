@@ -1,0 +1,273 @@
+#include "variational_refinement.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "bdis_stereo/matcher.hpp"  // kNoDisparity
+#include "patch_kernels.hpp"        // BDIS_ROW_LOOP
+
+namespace bdis {
+namespace detail {
+namespace {
+
+// The robust terms' constants, as OpenCV's VariationalRefinement has them:
+// the data terms' weights (brightness, gradient constancy), the
+// normalisation's floor (zeta^2: a flat pixel's data term stays finite), the
+// Charbonnier epsilon^2, the over-relaxation and the sweeps per step.
+constexpr float kBrightnessWeight = 5.f;
+constexpr float kGradientWeight = 10.f;
+constexpr float kZetaSq = 0.1f * 0.1f;
+constexpr float kEpsilonSq = 0.001f * 0.001f;
+constexpr float kOmega = 1.9f;
+constexpr int kSweeps = 3;
+
+/// d/dx by central differences, one-sided at the ends.
+inline void derivativeX(int w, const float* __restrict in, float* __restrict out) {
+  out[0] = in[1] - in[0];
+  for (int x = 1; x < w - 1; ++x) out[x] = 0.5f * (in[x + 1] - in[x - 1]);
+  out[w - 1] = in[w - 1] - in[w - 2];
+}
+
+/// The data term's coefficients of one row, constant over the fixed-point
+/// steps: the x derivatives of the average and of the difference, and each
+/// constancy term's normalisation by its squared gradient along x (OpenCV's
+/// VariationalRefinement normalises by the 2-D gradient; along x alone,
+/// since only x observes a disparity), 0 where `data` is 0.
+BDIS_ROW_LOOP
+void dataTermRow(int w, const float* __restrict average, const float* __restrict difference,
+                 const float* __restrict data, float* __restrict ix, float* __restrict ixx, float* __restrict ixz,
+                 float* __restrict norm, float* __restrict norm_x) {
+  derivativeX(w, average, ix);
+  derivativeX(w, ix, ixx);
+  derivativeX(w, difference, ixz);
+  for (int x = 0; x < w; ++x) {
+    norm[x] = data[x] / (ix[x] * ix[x] + kZetaSq);
+    norm_x[x] = data[x] / (ixx[x] * ixx[x] + kZetaSq);
+  }
+}
+
+/// One row of the linear system for the increment t of d = start + t,
+/// into `inv_diagonal` (the diagonal's inverse) and `rhs`. The data terms
+/// linearise right(x - d) as warped - ix * t and its x derivative as
+/// warped_x - ixx * t, each robust (Charbonnier) in its own normalised
+/// residual; each smoothness link adds its weight to the diagonal and pulls
+/// towards the neighbour's start. `right` as smoothnessRow writes it, `up`
+/// / `down` the links to the rows above and below (0 where there is none),
+/// `start*` padded by one column each side.
+BDIS_ROW_LOOP
+void systemRow(int w, const float* __restrict ix, const float* __restrict iz, const float* __restrict norm,
+               const float* __restrict ixx, const float* __restrict ixz, const float* __restrict norm_x,
+               const float* __restrict t, const float* __restrict right, const float* __restrict up,
+               const float* __restrict down, const float* __restrict start, const float* __restrict start_above,
+               const float* __restrict start_below, float* __restrict inv_diagonal, float* __restrict rhs) {
+  for (int x = 0; x < w; ++x) {
+    const float r = iz[x] - ix[x] * t[x];
+    const float wb = (0.5f * kBrightnessWeight) * norm[x] / std::sqrt(r * r * norm[x] + kEpsilonSq);
+    const float rx = ixz[x] - ixx[x] * t[x];
+    const float wg = (0.5f * kGradientWeight) * norm_x[x] / std::sqrt(rx * rx * norm_x[x] + kEpsilonSq);
+    const float diagonal =
+        wb * ix[x] * ix[x] + wg * ixx[x] * ixx[x] + kZetaSq + right[x] + right[x + 1] + up[x] + down[x];
+    inv_diagonal[x] = 1.f / diagonal;
+    rhs[x] = wb * ix[x] * iz[x] + wg * ixx[x] * ixz[x] + right[x + 1] * (start[x + 1] - start[x]) +
+             right[x] * (start[x - 1] - start[x]) + up[x] * (start_above[x] - start[x]) +
+             down[x] * (start_below[x] - start[x]);
+  }
+}
+
+/// Where each pixel's match falls in the right row, x - start: the left
+/// one of the two right pixels the interpolation reads, and the fraction
+/// towards the next (-1 when the match falls outside the row).
+BDIS_ROW_LOOP
+void matchPositionRow(int w, const float* __restrict start, int* __restrict index, float* __restrict fraction) {
+  const float last = static_cast<float>(w - 1);
+  for (int x = 0; x < w; ++x) {
+    const float xs = static_cast<float>(x) - start[x];
+    const bool inside = xs >= 0.f && xs <= last;
+    const int x0 = inside ? std::min(static_cast<int>(xs), w - 2) : 0;
+    index[x] = x0;
+    fraction[x] = inside ? xs - static_cast<float>(x0) : -1.f;
+  }
+}
+
+/// The two right pixels each match reads, and 1 where both are valid and
+/// so is the left pixel (scalar: the compiler does not gather).
+void gatherRow(int w, const int* __restrict index, const float* __restrict right, const uchar* __restrict right_valid,
+               const uchar* __restrict left_valid, float* __restrict first, float* __restrict second,
+               float* __restrict both_valid) {
+  for (int x = 0; x < w; ++x) {
+    const int i = index[x];
+    first[x] = right[i];
+    second[x] = right[i + 1];
+    both_valid[x] = left_valid[x] && right_valid[i] && right_valid[i + 1] ? 1.f : 0.f;
+  }
+}
+
+/// The right image warped by the start (linear interpolation), as the
+/// average with the left image and the difference from it; `data` 1 where
+/// the pixel and both right pixels its match reads are valid (else the
+/// average is the left pixel and the difference 0).
+BDIS_ROW_LOOP
+void warpRow(int w, const float* __restrict left, const float* __restrict fraction, const float* __restrict first,
+             const float* __restrict second, const float* __restrict both_valid, float* __restrict average,
+             float* __restrict difference, float* __restrict data) {
+  for (int x = 0; x < w; ++x) {
+    const float warped = first[x] + fraction[x] * (second[x] - first[x]);
+    const bool ok = fraction[x] >= 0.f && both_valid[x] > 0.f;
+    data[x] = ok ? 1.f : 0.f;
+    average[x] = ok ? 0.5f * (left[x] + warped) : left[x];
+    difference[x] = ok ? warped - left[x] : 0.f;
+  }
+}
+
+/// The start of one row: the estimates, the holes from the coarser level's
+/// row `coarser_row` upsampled (one value per two columns, 2x its value).
+BDIS_ROW_LOOP
+void startRow(int w, const float* __restrict disparity, const float* __restrict coarser_row,
+              float* __restrict start, float* __restrict t) {
+  for (int x = 0; x < w; ++x) {
+    start[x] = disparity[x] >= 0.f ? disparity[x] : std::max(0.f, 2.f * coarser_row[x]);
+    t[x] = 0.f;
+  }
+}
+
+/// The refined estimates back into `disparity`; holes stay holes.
+BDIS_ROW_LOOP
+void refinedRow(int w, const float* __restrict start, const float* __restrict t, float* __restrict disparity) {
+  for (int x = 0; x < w; ++x) {
+    disparity[x] = disparity[x] >= 0.f ? std::max(0.f, start[x] + t[x]) : disparity[x];
+  }
+}
+
+/// The smoothness weight of each pixel's links to its right and lower
+/// neighbours, robust in the current disparity's forward differences:
+/// `right` gets the weight of pixel x's link at x + 1 (column 0 holds the
+/// link left of the first pixel, 0), `down` at x; `below` null on the last
+/// row (no lower link, weight 0).
+BDIS_ROW_LOOP
+void smoothnessRow(int w, float half_alpha, const float* __restrict start, const float* __restrict t,
+                   const float* __restrict start_below, const float* __restrict t_below,
+                   float* __restrict right, float* __restrict down) {
+  right[0] = 0.f;
+  for (int x = 0; x < w - 1; ++x) {
+    const float d = start[x] + t[x];
+    const float dx = start[x + 1] + t[x + 1] - d;
+    const float dy = start_below ? start_below[x] + t_below[x] - d : 0.f;
+    const float weight = half_alpha / std::sqrt(dx * dx + dy * dy + kEpsilonSq);
+    right[x + 1] = weight;
+    down[x] = start_below ? weight : 0.f;
+  }
+  const float dy = start_below ? start_below[w - 1] + t_below[w - 1] - start[w - 1] - t[w - 1] : 0.f;
+  right[w] = 0.f;
+  down[w - 1] = start_below ? half_alpha / std::sqrt(dy * dy + kEpsilonSq) : 0.f;
+}
+
+/// One colour of a red-black SOR sweep over a row: the pixels with x
+/// from `first` in steps of 2 move to their over-relaxed Gauss-Seidel
+/// value; their neighbours, of the other colour, stay as they are. `t` has
+/// one padding column each side. The candidates of the whole row first
+/// (contiguous loads, which vectorise better than every other pixel's),
+/// then the colour's are kept.
+BDIS_ROW_LOOP
+void sorRow(int w, int first, const float* __restrict right, const float* __restrict up,
+            const float* __restrict down, const float* __restrict rhs, const float* __restrict inv_diagonal,
+            const float* __restrict t_above, const float* __restrict t_below, float* __restrict t,
+            float* __restrict candidate) {
+  for (int x = 0; x < w; ++x) {
+    const float pulled = rhs[x] + right[x] * t[x - 1] + right[x + 1] * t[x + 1] + up[x] * t_above[x] +
+                         down[x] * t_below[x];
+    candidate[x] = (1.f - kOmega) * t[x] + kOmega * pulled * inv_diagonal[x];
+  }
+  for (int x = first; x < w; x += 2) t[x] = candidate[x];
+}
+
+}  // namespace
+
+void VariationalRefinement::configure(int iterations, float smoothness) {
+  iterations_ = iterations;
+  smoothness_ = smoothness;
+}
+
+void VariationalRefinement::apply(const PyramidLevel& level, const cv::Mat1f& coarser, cv::Mat1f& disparity) {
+  if (iterations_ <= 0) return;
+  const int h = disparity.rows, w = disparity.cols;
+  if (w < 2 || h < 2) return;
+  for (cv::Mat1f* m : {&difference_, &ix_, &ixx_, &ixz_, &norm_, &norm_x_, &diagonal_, &rhs_}) m->create(h, w);
+  start_.create(h, w + 2);
+  increment_.create(h + 2, w + 2);  // a border of 0 the SOR reads past the ends
+  weight_right_.create(h, w + 1);
+  weight_down_.create(h + 1, w);
+  scratch_.create(6, std::max(w, (coarser.cols + 1) * 2));
+  match_index_.create(1, w);
+  std::fill(increment_[0], increment_[0] + w + 2, 0.f);
+  std::fill(increment_[h + 1], increment_[h + 1] + w + 2, 0.f);
+  std::fill(weight_down_[0], weight_down_[0] + w, 0.f);
+  // The holes start from the coarser level's dense disparity (2x its value).
+  const int ch = coarser.rows, cw = coarser.cols;
+  float* coarser_row = scratch_.ptr<float>();
+  for (int y = 0; y < h; ++y) {
+    const float* c = coarser[std::min(y / 2, ch - 1)];
+    if (y % 2 == 0 || y / 2 >= ch) {
+      for (int x = 0; x < w; ++x) coarser_row[x] = c[std::min(x / 2, cw - 1)];
+    }
+    float* s = start(y);
+    startRow(w, disparity[y], coarser_row, s, t(y));
+    s[-1] = s[0];
+    s[w] = s[w - 1];
+    t(y)[-1] = t(y)[w] = 0.f;
+  }
+  prepareDataTerm(level);
+  for (int k = 0; k < iterations_; ++k) fixedPointStep();
+  for (int y = 0; y < h; ++y) refinedRow(w, start(y), t(y), disparity[y]);
+}
+
+void VariationalRefinement::prepareDataTerm(const PyramidLevel& level) {
+  const int h = start_.rows, w = start_.cols - 2;
+  float* fraction = scratch_[0];
+  float* first = scratch_[1];
+  float* second = scratch_[2];
+  float* both_valid = scratch_[3];
+  float* average = scratch_[4];
+  float* data = scratch_[5];
+  int* index = match_index_.ptr<int>();
+  for (int y = 0; y < h; ++y) {
+    matchPositionRow(w, start(y), index, fraction);
+    gatherRow(w, index, level.rightRow(y), level.rightValidRow(y), level.leftValidRow(y), first, second,
+              both_valid);
+    warpRow(w, level.leftRow(y), fraction, first, second, both_valid, average, difference_[y], data);
+    dataTermRow(w, average, difference_[y], data, ix_[y], ixx_[y], ixz_[y], norm_[y], norm_x_[y]);
+  }
+}
+
+void VariationalRefinement::fixedPointStep() {
+  const int h = start_.rows, w = start_.cols - 2;
+  const float half_alpha = 0.5f * smoothness_;
+  // Row y + 1 of weight_down_ links level rows y and y + 1; rows 0 and h
+  // (no link above the first row or below the last) stay 0.
+  for (int y = 0; y < h; ++y) {
+    const bool has_below = y + 1 < h;
+    smoothnessRow(w, half_alpha, start(y), t(y), has_below ? start(y + 1) : nullptr, has_below ? t(y + 1) : nullptr,
+                  weight_right_[y], weight_down_[y + 1]);
+  }
+  for (int y = 0; y < h; ++y) {
+    systemRow(w, ix_[y], difference_[y], norm_[y], ixx_[y], ixz_[y], norm_x_[y], t(y), weight_right_[y], weight_down_[y], weight_down_[y + 1], start(y), start(std::max(y - 1, 0)),
+              start(std::min(y + 1, h - 1)), diagonal_[y], rhs_[y]);
+  }
+  // Red-black SOR: each half-sweep (stage) moves one colour from the other
+  // colour's values of the stage before, so the order of the rows inside a
+  // stage does not matter. The stages run as a wavefront, stage k on row
+  // step - k, each row after the rows it reads: every sweep in one pass over
+  // the rows while they are in cache, with the same result as stage after
+  // stage over the whole level.
+  constexpr int kStages = 2 * kSweeps;
+  for (int step = 0; step < h + kStages - 1; ++step) {
+    for (int k = 0; k < kStages; ++k) {
+      const int y = step - k;
+      if (y < 0 || y >= h) continue;
+      sorRow(w, (y + k) & 1, weight_right_[y], weight_down_[y], weight_down_[y + 1], rhs_[y], diagonal_[y], t(y - 1),
+             t(y + 1), t(y), scratch_[0]);
+    }
+  }
+}
+
+}  // namespace detail
+}  // namespace bdis
