@@ -196,7 +196,7 @@ void VariationalRefinement::apply(const PyramidLevel& level, const cv::Mat1f& co
   increment_.create(h + 2, w + 2);  // a border of 0 the SOR reads past the ends
   weight_right_.create(h, w + 1);
   weight_down_.create(h + 1, w);
-  scratch_.create(6, std::max(w, (coarser.cols + 1) * 2));
+  scratch_.create(6, w);
   match_index_.create(1, w);
   std::fill(increment_[0], increment_[0] + w + 2, 0.f);
   std::fill(increment_[h + 1], increment_[h + 1] + w + 2, 0.f);
@@ -249,7 +249,8 @@ void VariationalRefinement::fixedPointStep() {
                   weight_right_[y], weight_down_[y + 1]);
   }
   for (int y = 0; y < h; ++y) {
-    systemRow(w, ix_[y], difference_[y], norm_[y], ixx_[y], ixz_[y], norm_x_[y], t(y), weight_right_[y], weight_down_[y], weight_down_[y + 1], start(y), start(std::max(y - 1, 0)),
+    systemRow(w, ix_[y], difference_[y], norm_[y], ixx_[y], ixz_[y], norm_x_[y], t(y), weight_right_[y],
+              weight_down_[y], weight_down_[y + 1], start(y), start(std::max(y - 1, 0)),
               start(std::min(y + 1, h - 1)), diagonal_[y], rhs_[y]);
   }
   // Red-black SOR: each half-sweep (stage) moves one colour from the other
