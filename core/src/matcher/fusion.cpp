@@ -205,10 +205,9 @@ void Fusion::accumulate(const PatchGrid& grid, const std::vector<PatchEstimate>&
 
 void Fusion::fusedRowOrCoarse(int width, int by, int y, const cv::Mat1f& coarse, float* out) const {
   const float* den = den_[by];
-  const float* coarse_row = coarse[std::min(y / 2, coarse.rows - 1)];
   fusedRow(width, num_[by], den, out);
   for (int x = 0; x < width; ++x) {
-    if (!(den[x] > 0.f)) out[x] = 2.f * coarse_row[std::min(x / 2, coarse.cols - 1)];  // rare
+    if (!(den[x] > 0.f)) out[x] = fromCoarserLevel(coarse, x, y);  // rare
   }
 }
 

@@ -17,6 +17,13 @@
 namespace bdis {
 namespace detail {
 
+/// Pixel (x, y)'s disparity as the coarser level `coarse` has it: twice the
+/// value at (x / 2, y / 2), clamped to the map. Where no patch reaches a
+/// pixel, or a stage needs a dense start there, this stands in.
+inline float fromCoarserLevel(const cv::Mat1f& coarse, int x, int y) {
+  return 2.f * coarse(std::min(y / 2, coarse.rows - 1), std::min(x / 2, coarse.cols - 1));
+}
+
 /// The finest level's per-pixel results (level resolution).
 struct LevelMaps {
   cv::Mat1f disparity;   ///< kNoDisparity where there is no estimate

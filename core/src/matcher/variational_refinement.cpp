@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "bdis_stereo/matcher.hpp"  // kNoDisparity
+#include "fusion.hpp"               // fromCoarserLevel
 #include "patch_kernels.hpp"        // BDIS_ROW_LOOP
 
 namespace bdis {
@@ -119,13 +120,13 @@ void warpRow(int w, const float* __restrict left, const float* __restrict fracti
   }
 }
 
-/// The start of one row: the estimates, the holes from the coarser level's
-/// row `coarser_row` upsampled (one value per two columns, 2x its value).
+/// The start of one row: the estimates, the holes from `coarser_row` (the
+/// coarser level's disparity at each pixel of the row).
 BDIS_ROW_LOOP
 void startRow(int w, const float* __restrict disparity, const float* __restrict coarser_row,
               float* __restrict start, float* __restrict t) {
   for (int x = 0; x < w; ++x) {
-    start[x] = disparity[x] >= 0.f ? disparity[x] : std::max(0.f, 2.f * coarser_row[x]);
+    start[x] = disparity[x] >= 0.f ? disparity[x] : std::max(0.f, coarser_row[x]);
     t[x] = 0.f;
   }
 }
@@ -201,14 +202,11 @@ void VariationalRefinement::apply(const PyramidLevel& level, const cv::Mat1f& co
   std::fill(increment_[0], increment_[0] + w + 2, 0.f);
   std::fill(increment_[h + 1], increment_[h + 1] + w + 2, 0.f);
   std::fill(weight_down_[0], weight_down_[0] + w, 0.f);
-  // The holes start from the coarser level's dense disparity (2x its value).
-  const int ch = coarser.rows, cw = coarser.cols;
+  // The holes start from the coarser level's dense disparity, as the
+  // fusion's initialisation reads it.
   float* coarser_row = scratch_.ptr<float>();
   for (int y = 0; y < h; ++y) {
-    const float* c = coarser[std::min(y / 2, ch - 1)];
-    if (y % 2 == 0 || y / 2 >= ch) {
-      for (int x = 0; x < w; ++x) coarser_row[x] = c[std::min(x / 2, cw - 1)];
-    }
+    for (int x = 0; x < w; ++x) coarser_row[x] = fromCoarserLevel(coarser, x, y);
     float* s = start(y);
     startRow(w, disparity[y], coarser_row, s, t(y));
     s[-1] = s[0];
