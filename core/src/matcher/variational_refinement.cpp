@@ -131,11 +131,17 @@ void startRow(int w, const float* __restrict disparity, const float* __restrict 
   }
 }
 
-/// The refined estimates back into `disparity`; holes stay holes.
+/// The refined estimates back into `disparity`; holes stay holes. An
+/// estimate moves only to where its match stays in the right image (0 <= d
+/// <= x): beyond, the refinement had no data term, only its neighbours (or,
+/// with extreme settings, a solver that did not settle), and the estimate
+/// keeps its start.
 BDIS_ROW_LOOP
 void refinedRow(int w, const float* __restrict start, const float* __restrict t, float* __restrict disparity) {
   for (int x = 0; x < w; ++x) {
-    disparity[x] = disparity[x] >= 0.f ? std::max(0.f, start[x] + t[x]) : disparity[x];
+    const float refined = start[x] + t[x];
+    const bool inside = refined >= 0.f && refined <= static_cast<float>(x);
+    disparity[x] = disparity[x] >= 0.f ? (inside ? refined : start[x]) : disparity[x];
   }
 }
 

@@ -271,9 +271,9 @@ void checkHashes(const std::vector<NamedPair>& pairs, const std::vector<Expected
 const std::vector<Expected> kGeneratedPairHashes = {
     {"balanced", 0xf9a724f57700b4a8ull, 0xb04e8d6ec03cab7cull, 0x9be99fd4e776e589ull},
     {"fast", 0x05643da0b9f819e6ull, 0xc3f1601c5bde21f0ull, 0x1e622a5b874bd105ull},
-    {"accurate", 0xddff182cc695e2a0ull, 0x45df3019cdd4a6d8ull, 0xbd599954aeb8537cull},
+    {"accurate", 0x7924fa39730fa347ull, 0x0b20d7cb068dd133ull, 0xf4b92246f90b3b1aull},
     {"balanced_variance", 0x58a948949a30b651ull, 0xe24394126ba72d05ull, 0xc755ddd33a09fd51ull},
-    {"accurate_variance", 0xdcea8863dec79db7ull, 0x6a72283661f72852ull, 0x2030b5bd839b88ddull},
+    {"accurate_variance", 0x8ee42581e16707c0ull, 0x206f7b15c1f24261ull, 0xac02b3b36b0c2effull},
     {"finest_0", 0xd9dc24d6c92109bbull, 0xf08d727175fee8e6ull, 0x5e205c9e4ef67478ull},
     {"finest_2", 0x4283fa5f78bcefb8ull, 0x5578872478481bacull, 0x3fdccdcbbc8b7c8cull},
     {"levels_3_3", 0xb31dcbccc7652fd5ull, 0x3ac0f4efcb396b97ull, 0xc24760cc453ea158ull},
@@ -295,9 +295,9 @@ const std::vector<Expected> kGeneratedPairHashes = {
 const std::vector<Expected> kColonFrameHashes = {
     {"balanced", 0xb8bd165751921f0cull, 0x7f946e9b9bcdaf30ull, 0xcceb7bcd15847f68ull},
     {"fast", 0x50e883411ff45bb1ull, 0xb5ced5b087afa630ull, 0xafa71356cbabb93dull},
-    {"accurate", 0x5aba729f30cb5ef9ull, 0xa44b57474c73d9daull, 0xe43642783ecee703ull},
+    {"accurate", 0xfd8de92317108b51ull, 0xa117e586335e8a43ull, 0x6fdf8f605c89b618ull},
     {"balanced_variance", 0xb6ee4b9c9fa88455ull, 0xc141d3ef0fe6bb77ull, 0xadab8e65dfc1100aull},
-    {"accurate_variance", 0xb3d14598a20514efull, 0x38b2edaa28de1864ull, 0x4876fed4f2f49bf1ull},
+    {"accurate_variance", 0x086fad721f1d58e7ull, 0x951170721280da85ull, 0x4d4453f874ce6286ull},
     {"finest_0", 0x56f54fa58307af8cull, 0xaa67511b4753a06cull, 0xb0461b2815bcceeeull},
     {"finest_2", 0x135133cf4e7d670cull, 0x5343ab64dacf6dddull, 0x4e9d40af5234bf5aull},
     {"levels_3_3", 0xe65c96ed554aba6full, 0xdb6379becf77d9eeull, 0xb7627982527cb146ull},
