@@ -4,8 +4,9 @@
 // occluder's rim, a guess in a flat region), where the search from the
 // right image lands elsewhere (left-right check), where the surface is too
 // slanted for a patch of one disparity or, on strong texture, misfits it
-// (slant_cue.hpp) and where most of its neighbourhood got no estimate
-// (support_cue.hpp). Measured on generated
+// (slant_cue.hpp), where most of its neighbourhood got no estimate
+// (support_cue.hpp) and where it stands apart from the estimates of its
+// wider neighbourhood (consensus_cue.hpp). Measured on generated
 // scenes and the colon sequences, each cue ranks the wrong estimates better
 // than the evidence alone; see docs/method.md for the figures.
 #pragma once
@@ -31,6 +32,9 @@ constexpr float kMisfitHalvingGrey = kSlantHalvingPx * kStrongTextureGreyPerPx;
 /// Share of a pixel's neighbourhood without an estimate at which the
 /// confidence halves: a quarter of what its covering patches reach.
 constexpr float kSupportHalvingShare = 0.25f;
+/// Distance of an estimate from the mean of the estimates around it (two
+/// patch sides each way) at which the confidence halves: that of the spread.
+constexpr float kConsensusHalvingPx = kSpreadHalvingPx;
 
 /// The variance of a pixel's disparity, as a standard deviation of its
 /// error should be: a share of the covering patches' window fit (which alone

@@ -11,6 +11,7 @@
 
 #include "band_schedule.hpp"
 #include "confidence.hpp"
+#include "consensus_cue.hpp"
 #include "left_right_check.hpp"
 #include "pyramid.hpp"
 #include "search_pass.hpp"
@@ -73,6 +74,7 @@ struct Matcher::Impl {
   std::vector<detail::SearchBand> bands;    ///< the finest level's search order
   detail::SlantCue slant;
   detail::SupportCue support;
+  detail::ConsensusCue consensus;
   detail::VariationalRefinement refinement;
   detail::Upsampler upsampler;
 
@@ -137,7 +139,9 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   // 7. The support cue: estimates among holes.
   m.support.apply(out.disparity, m.pyramid.level(finest).left_valid, m.pyramid.level(finest).left, P.patch_size, detail::kSupportHalvingShare,
                   out.confidence);
-  // 8. Upsampling to the input resolution.
+  // 8. The consensus cue: estimates that stand apart from their neighbourhood.
+  m.consensus.apply(out.disparity, P.patch_size, detail::kConsensusHalvingPx * level_px, out.confidence);
+  // 9. Upsampling to the input resolution.
   m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, result);
   if (P.compute_variance) {
     m.upsampler.upsampleVariance(out, finest, result);
