@@ -10,6 +10,8 @@
 // make up its own mean.
 #pragma once
 
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 #include "box_sums.hpp"
@@ -23,17 +25,17 @@ class ConsensusCue {
   /// kNoDisparity where none) by agreement() of its distance from the mean
   /// of the estimates in a box reaching two patch sides each way, with
   /// `halving` (level px). The box is summed over 2 x 2 blocks of pixels:
-  /// 2 `patch_px` + 1 blocks each way around the pixel's block (a quarter of
-  /// the work; the box is wide enough that it need not be centred to the pixel). Buffers are kept
-  /// for the next frame of the same size; the box sums are separable, in row
-  /// loops that vectorise.
+  /// 2 `patch_px` + 1 blocks each way around the pixel's block (a quarter
+  /// of the work; the box is wide enough that it need not be centred on the
+  /// pixel). Buffers are kept for the next frame of the same size; the box
+  /// sums are separable, in row loops that vectorise.
   void apply(const cv::Mat1f& disparity, int patch_px, float halving, cv::Mat1f& confidence);
 
  private:
-  BoxSums sums_;                    ///< of the blocks' estimates and of their count
+  BoxSums sums_;                              ///< of the blocks' estimates and of their count
   std::vector<float> pair_sum_, pair_count_;  ///< two rows' sums, per column
-  std::vector<float> block_mean_;   ///< a row of the box means, per block
-  std::vector<float> mean_;         ///< the same, per pixel
+  std::vector<float> block_mean_;             ///< a row of the box means, per block
+  std::vector<float> mean_;                   ///< the same, per pixel
 };
 
 }  // namespace detail

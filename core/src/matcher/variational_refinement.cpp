@@ -212,7 +212,10 @@ void VariationalRefinement::apply(const PyramidLevel& level, const cv::Mat1f& co
   // fusion's initialisation reads it.
   float* coarser_row = scratch_.ptr<float>();
   for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) coarser_row[x] = fromCoarserLevel(coarser, x, y);
+    // Rows 2k and 2k + 1 read the same coarser row.
+    if (y % 2 == 0) {
+      for (int x = 0; x < w; ++x) coarser_row[x] = fromCoarserLevel(coarser, x, y);
+    }
     float* s = start(y);
     startRow(w, disparity[y], coarser_row, s, t(y));
     s[-1] = s[0];
