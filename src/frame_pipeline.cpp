@@ -45,7 +45,10 @@ void FramePipeline::process(const StereoFrame& frame) {
 
   const MatcherInput input = matcherInput(images);
   if (camerasLookSwapped(input, start)) return;
-  matcher_.compute(input.left, input.right, result_);
+  bdis::MatchOutputs maps;
+  maps.confidence = wanted.confidence;
+  maps.variance = wanted.variance;
+  matcher_.compute(input.left, input.right, result_, maps);
   publish(images.left->header, *frame.left_info, camera, input, wanted);
 
   const ros::WallTime end = ros::WallTime::now();

@@ -33,6 +33,14 @@ struct MatchResult {
   cv::Mat variance;    ///< CV_32FC1 px^2 when compute_variance, NaN where no estimate; else empty
 };
 
+/// Which full-resolution maps compute() fills besides the disparity. A map
+/// left out is released (empty) and costs nothing to upsample: a node computes
+/// only what is subscribed.
+struct MatchOutputs {
+  bool confidence = true;
+  bool variance = true;  ///< only with MatcherParams::compute_variance
+};
+
 /// Construct once, call compute() for every frame. Buffers are sized on the
 /// first frame of a given size and reused: frames of an unchanged size do not
 /// allocate (pass the same MatchResult back in to reuse its buffers too).
@@ -54,7 +62,8 @@ class Matcher {
   /// Left and right: rectified, equal size, CV_8UC1 (mono) or CV_8UC3 (BGR),
   /// each side at least kMinImageSide. Pure black (0) pixels are treated as
   /// outside the rectified view. Throws std::invalid_argument on anything else.
-  void compute(const cv::Mat& left, const cv::Mat& right, MatchResult& result);
+  void compute(const cv::Mat& left, const cv::Mat& right, MatchResult& result,
+               const MatchOutputs& outputs = MatchOutputs{});
 
  private:
   struct Impl;

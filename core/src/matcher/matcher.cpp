@@ -98,7 +98,7 @@ void Matcher::setParams(const MatcherParams& params) {
 
 const MatcherParams& Matcher::params() const { return impl_->params; }
 
-void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& result) {
+void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& result, const MatchOutputs& outputs) {
   validateInputs(left, right);
   Impl& m = *impl_;
   const MatcherParams& P = m.params;
@@ -142,8 +142,8 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   // 8. The consensus cue: estimates that stand apart from their neighbourhood.
   m.consensus.apply(out.disparity, P.patch_size, detail::kConsensusHalvingPx * level_px, out.confidence);
   // 9. Upsampling to the input resolution.
-  m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, result);
-  if (P.compute_variance) {
+  m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, outputs.confidence, result);
+  if (P.compute_variance && outputs.variance) {
     m.upsampler.upsampleVariance(out, finest, result);
   } else {
     result.variance.release();

@@ -13,18 +13,31 @@ namespace {
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 /// Blends two level rows with weights (1 - a, a), counting only pixels with
-/// an estimate: the weight, weighted disparity and weighted confidence.
-BDIS_ROW_LOOP
-void blendRows(int n, const float* __restrict d0, const float* __restrict d1, const float* __restrict c0,
-               const float* __restrict c1, float a, float* __restrict weight, float* __restrict disparity,
-               float* __restrict confidence) {
+/// an estimate: the weight, weighted disparity and, with kConfidence,
+/// weighted confidence.
+template <bool kConfidence>
+inline __attribute__((always_inline)) void blendRowsOf(int n, const float* __restrict d0, const float* __restrict d1,
+                                                       const float* __restrict c0, const float* __restrict c1, float a,
+                                                       float* __restrict weight, float* __restrict disparity,
+                                                       float* __restrict confidence) {
   for (int x = 0; x < n; ++x) {
     const float w0 = d0[x] >= 0.f ? 1.f - a : 0.f;
     const float w1 = d1[x] >= 0.f ? a : 0.f;
     weight[x] = w0 + w1;
     disparity[x] = w0 * d0[x] + w1 * d1[x];
-    confidence[x] = w0 * c0[x] + w1 * c1[x];
+    if (kConfidence) confidence[x] = w0 * c0[x] + w1 * c1[x];
   }
+}
+
+// One function per variant, each cloned per ISA (BDIS_ROW_LOOP does not take templates).
+BDIS_ROW_LOOP
+void blendRows(int n, const float* d0, const float* d1, const float* c0, const float* c1, float a, float* weight,
+               float* disparity, float* confidence) {
+  blendRowsOf<true>(n, d0, d1, c0, c1, a, weight, disparity, confidence);
+}
+BDIS_ROW_LOOP
+void blendDisparityRows(int n, const float* d0, const float* d1, float a, float* weight, float* disparity) {
+  blendRowsOf<false>(n, d0, d1, nullptr, nullptr, a, weight, disparity, nullptr);
 }
 
 /// dst[x] = (1 - ax[x]) src[x0[x]] + ax[x] src[x1[x]]: one level row
@@ -95,19 +108,35 @@ ColumnInterpolation integerColumnInterpolation(int factor, int out_width, int le
 }
 
 /// Final output row: weighted means where the input pixel is valid and the
-/// estimates around it carry more than a quarter of the weight.
-BDIS_ROW_LOOP
-void upsampledRow(int n, const uchar* __restrict valid, const float* __restrict weight,
-                  const float* __restrict disparity, const float* __restrict confidence, float scale,
-                  float* __restrict d_out, float* __restrict c_out) {
+/// estimates around it carry more than a quarter of the weight; the
+/// confidence too with kConfidence.
+template <bool kConfidence>
+inline __attribute__((always_inline)) void upsampledRowOf(int n, const uchar* __restrict valid,
+                                                          const float* __restrict weight,
+                                                          const float* __restrict disparity,
+                                                          const float* __restrict confidence, float scale,
+                                                          float* __restrict d_out, float* __restrict c_out) {
   for (int x = 0; x < n; ++x) {
     const bool keep = (valid[x] != 0) & (weight[x] > 0.25f);  // & : no branch
     const float w = std::max(weight[x], 0.25f);
-    const float d = scale * disparity[x] / w, c = confidence[x] / w;
-    const float d_kept = keep ? d : kNoDisparity, c_kept = keep ? c : 0.f;
-    d_out[x] = d_kept;
-    c_out[x] = c_kept;
+    const float d = scale * disparity[x] / w;
+    d_out[x] = keep ? d : kNoDisparity;
+    if (kConfidence) {
+      const float c = confidence[x] / w;
+      c_out[x] = keep ? c : 0.f;
+    }
   }
+}
+
+BDIS_ROW_LOOP
+void upsampledRow(int n, const uchar* valid, const float* weight, const float* disparity, const float* confidence,
+                  float scale, float* d_out, float* c_out) {
+  upsampledRowOf<true>(n, valid, weight, disparity, confidence, scale, d_out, c_out);
+}
+BDIS_ROW_LOOP
+void upsampledDisparityRow(int n, const uchar* valid, const float* weight, const float* disparity, float scale,
+                           float* d_out) {
+  upsampledRowOf<false>(n, valid, weight, disparity, nullptr, scale, d_out, nullptr);
 }
 
 /// Level row and weight of output row y: rows y0 and y1 with weight (1 - a, a).
@@ -138,11 +167,16 @@ void Upsampler::columnTaps(int out_width, int level_width, float inv_scale) {
   }
 }
 
-void Upsampler::upsample(const LevelMaps& level, int s, const cv::Mat1b& full_valid, MatchResult& out) {
+void Upsampler::upsample(const LevelMaps& level, int s, const cv::Mat1b& full_valid, bool with_confidence,
+                         MatchResult& out) {
   const int W = full_valid.cols, H = full_valid.rows;
   const int level_width = level.disparity.cols, level_height = level.disparity.rows;
   out.disparity.create(H, W, CV_32FC1);
-  out.confidence.create(H, W, CV_32FC1);
+  if (with_confidence) {
+    out.confidence.create(H, W, CV_32FC1);
+  } else {
+    out.confidence.release();
+  }
   const float scale = static_cast<float>(1 << s);
   const float inv = 1.f / scale;
   const ColumnInterpolation by_factor = integerColumnInterpolation(1 << s, W, level_width);
@@ -151,24 +185,34 @@ void Upsampler::upsample(const LevelMaps& level, int s, const cv::Mat1b& full_va
     v->resize(static_cast<size_t>(std::max(W, level_width)));
   }
   for (std::vector<float>* v : {&row_weight_, &row_disparity_, &row_confidence_}) v->resize(static_cast<size_t>(W));
+  const auto interpolate = [&](const float* level_row, float* out_row) {
+    if (by_factor) {
+      by_factor(level_width, level_row, out_row);
+    } else {
+      interpolateColumns(W, x0_.data(), x1_.data(), ax_.data(), level_row, out_row);
+    }
+  };
   for (int y = 0; y < H; ++y) {
     // Blend the two level rows first (weights of rows with an estimate, and
     // weighted values), then the two columns of each output pixel.
     const RowTaps t = rowTaps(y, level_height, inv);
-    blendRows(level_width, level.disparity[t.y0], level.disparity[t.y1], level.confidence[t.y0],
-              level.confidence[t.y1], t.a, weight_.data(), disparity_.data(), confidence_.data());
-    for (const auto& [level_row, out_row] :
-         {std::pair<float*, float*>{weight_.data(), row_weight_.data()},
-          {disparity_.data(), row_disparity_.data()},
-          {confidence_.data(), row_confidence_.data()}}) {
-      if (by_factor) {
-        by_factor(level_width, level_row, out_row);
-      } else {
-        interpolateColumns(W, x0_.data(), x1_.data(), ax_.data(), level_row, out_row);
-      }
+    if (with_confidence) {
+      blendRows(level_width, level.disparity[t.y0], level.disparity[t.y1], level.confidence[t.y0],
+                level.confidence[t.y1], t.a, weight_.data(), disparity_.data(), confidence_.data());
+    } else {
+      blendDisparityRows(level_width, level.disparity[t.y0], level.disparity[t.y1], t.a, weight_.data(),
+                         disparity_.data());
     }
-    upsampledRow(W, full_valid[y], row_weight_.data(), row_disparity_.data(), row_confidence_.data(), scale,
-                 out.disparity.ptr<float>(y), out.confidence.ptr<float>(y));
+    interpolate(weight_.data(), row_weight_.data());
+    interpolate(disparity_.data(), row_disparity_.data());
+    if (with_confidence) {
+      interpolate(confidence_.data(), row_confidence_.data());
+      upsampledRow(W, full_valid[y], row_weight_.data(), row_disparity_.data(), row_confidence_.data(), scale,
+                   out.disparity.ptr<float>(y), out.confidence.ptr<float>(y));
+    } else {
+      upsampledDisparityRow(W, full_valid[y], row_weight_.data(), row_disparity_.data(), scale,
+                            out.disparity.ptr<float>(y));
+    }
   }
 }
 

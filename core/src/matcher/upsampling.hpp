@@ -15,11 +15,12 @@ namespace detail {
 
 class Upsampler {
  public:
-  /// out.disparity and out.confidence (CV_32FC1, the size of `full_valid`)
-  /// from the level-s maps. A pixel gets an estimate where `full_valid` is
-  /// set and the level pixels around it that have one carry more than a
-  /// quarter of the bilinear weight.
-  void upsample(const LevelMaps& level, int s, const cv::Mat1b& full_valid, MatchResult& out);
+  /// out.disparity and, `with_confidence`, out.confidence (CV_32FC1, the
+  /// size of `full_valid`; else out.confidence is released) from the level-s
+  /// maps. A pixel gets an estimate where `full_valid` is set and the level
+  /// pixels around it that have one carry more than a quarter of the
+  /// bilinear weight.
+  void upsample(const LevelMaps& level, int s, const cv::Mat1b& full_valid, bool with_confidence, MatchResult& out);
   /// out.variance from level.variance, after upsample(): the bilinear mean
   /// of the neighbours with an estimate, scaled by 4^s; NaN where
   /// out.disparity has no estimate.

@@ -338,6 +338,41 @@ TEST(MatcherReuse, RepeatedAndInterleavedSizesGiveIdenticalResults) {
   EXPECT_TRUE(identical(reused.variance, first.variance));
 }
 
+// A node computes only the subscribed maps: the ones left out come back
+// empty, the others as with every map, on one matcher switched between frames
+// (an output width that is a power-of-two multiple of the level's and one
+// that is not take different upsampling paths).
+TEST(MatcherReuse, MapsLeftOutAreEmptyAndTheOthersUnchanged) {
+  MatcherParams params;
+  params.compute_variance = true;
+  for (const cv::Size size : {cv::Size(kW, kH), cv::Size(641, 479)}) {
+    SCOPED_TRACE(std::to_string(size.width) + "x" + std::to_string(size.height));
+    const StereoPair pair = texturedPair(size.width, size.height, {7.3, 0.0}, 3);
+    const MatchResult all = run(params, pair.left, pair.right);
+    Matcher m(params);
+    MatchResult r;
+    for (const bool confidence : {false, true, false}) {
+      for (const bool variance : {false, true}) {
+        SCOPED_TRACE(std::string(confidence ? "confidence" : "no confidence") +
+                     (variance ? ", variance" : ", no variance"));
+        bdis::MatchOutputs maps;
+        maps.confidence = confidence;
+        maps.variance = variance;
+        m.compute(pair.left, pair.right, r, maps);
+        EXPECT_TRUE(identical(r.disparity, all.disparity));
+        EXPECT_EQ(r.confidence.empty(), !confidence);
+        if (confidence) {
+          EXPECT_TRUE(identical(r.confidence, all.confidence));
+        }
+        EXPECT_EQ(r.variance.empty(), !variance);
+        if (variance) {
+          EXPECT_TRUE(identical(r.variance, all.variance));
+        }
+      }
+    }
+  }
+}
+
 TEST(MatcherReuse, ResultObjectFromOtherUseIsOverwrittenCompletely) {
   // A MatchResult holding stale, wrongly typed buffers: compute replaces them.
   const StereoPair a = texturedPair(160, 120, {5.6, 0.0});
