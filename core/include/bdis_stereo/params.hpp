@@ -26,7 +26,10 @@ struct MatcherParams {
   /// much of the scene on an HD frame.
   int finest_level = -1;
   // Patch search (inverse-compositional, 1-D).
-  int iterations = 2;       ///< Gauss-Newton steps per patch at most (3 or 12 score the same)
+  /// Gauss-Newton steps per patch at most. One: on flat or dark tissue each
+  /// further step on a flat cost carries the patch further from the coarser
+  /// level's start; the variational refinement does the fine alignment.
+  int iterations = 1;
   int patch_size = 8;       ///< side p of the square patches, px at each level
   float overlap = 0.6f;     ///< stride = max(1, round(p * (1 - overlap))) on the finest level
   float coarse_overlap = 0.4f;  ///< the same on the coarser levels (they only initialise the next)
@@ -46,13 +49,15 @@ struct MatcherParams {
   float sigma_r = 0.5f;            ///< brightness noise, grey levels
   float contrast_share = 0.3f;     ///< see above; 0 = paper's fixed-noise posterior
   float sigma_s = 4.0f;            ///< spatial Gaussian inside a patch, px at the level
-  float confidence_floor = 0.015f;  ///< pixels whose patches' mean evidence is lower get no disparity
+  /// Pixels whose patches' mean evidence is lower get no disparity. Low,
+  /// because the refinement mends most low-evidence estimates.
+  float confidence_floor = 0.0075f;
   float lr_check_tolerance = 3.f;  ///< left-right check, full-resolution px; 0 = off
   float lr_check_overlap = 0.4f;   ///< patch overlap of the check's search from the right image
   bool compute_variance = false;   ///< also output per-pixel disparity variance (px^2)
   // Variational refinement of the finest level (DIS's last stage, along x):
   // per pixel, the disparity its own grey levels and its neighbours agree on.
-  int refinement_iterations = 0;       ///< fixed-point steps; 0 = off (accurate: 2)
+  int refinement_iterations = 1;       ///< fixed-point steps; 0 = off (accurate: 2)
   float refinement_smoothness = 20.f;  ///< alpha: weight of the smoothness term
 
   /// Throws std::invalid_argument naming the first bad field and its range.
