@@ -64,7 +64,8 @@ const std::vector<ParamField>& paramFields() {
             "width: 1 up to 904 px, 2 up to 1809, 3 above"),
       field("iterations", &MatcherParams::iterations, 1, 200,
             "Gauss-Newton steps per patch at most (fewer once a step is below 0.01 px)"),
-      field("patch_size", &MatcherParams::patch_size, 4, 32, "patch side p, px at each level"),
+      field("patch_size", &MatcherParams::patch_size, 4, 32,
+            "patch side p, px at each level; smaller where finest_level -1 rounds the level up (6 at 1920 px)"),
       field("overlap", &MatcherParams::overlap, 0.0, 0.95,
             "patch overlap on the finest level; stride = max(1, round(p * (1 - overlap)))"),
       field("coarse_overlap", &MatcherParams::coarse_overlap, 0.0, 0.95,
@@ -166,6 +167,13 @@ int MatcherParams::finestLevelFor(int width) const {
 
 float MatcherParams::checkToleranceFor(int width) const {
   return finest_level < 0 && finestLevelFor(width) > 1 ? 2.f * lr_check_tolerance : lr_check_tolerance;
+}
+
+int MatcherParams::patchSizeFor(int width) const {
+  const int level = finestLevelFor(width);
+  if (finest_level >= 0 || level <= 1) return patch_size;
+  const double scene_share = static_cast<double>(std::max(1, width)) / (320.0 * static_cast<double>(1 << level));
+  return std::clamp(static_cast<int>(std::lround(patch_size * scene_share)), 4, patch_size);
 }
 
 std::vector<std::string> MatcherParams::presetNames() {

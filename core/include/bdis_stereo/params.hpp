@@ -72,6 +72,14 @@ struct MatcherParams {
   /// coarser level than 1, which would otherwise make the check stricter in
   /// the scene the larger the frame.
   float checkToleranceFor(int width) const;
+  /// patch_size for frames `width` px wide: as set, except where
+  /// finest_level is -1 and finestLevelFor rounded the level up past 1 (a
+  /// 1920 px frame is searched at level 3, log2(1920 / 320) = 2.58): there
+  /// the patch shrinks by the rounding, round(patch_size * width / (320 *
+  /// 2^level)), never grows, so that it sees as much of the scene as on a
+  /// 640 px frame at level 1 (6 px at 1920, 8 at 1280). The matcher keeps
+  /// the finest level's stride of patch_size, so the patches stay as many.
+  int patchSizeFor(int width) const;
 
   /// Named settings; throws std::invalid_argument for an unknown name.
   static MatcherParams preset(const std::string& name);

@@ -13,6 +13,7 @@
 #include "confidence.hpp"
 #include "consensus_cue.hpp"
 #include "left_right_check.hpp"
+#include "patch_grid.hpp"
 #include "pyramid.hpp"
 #include "search_pass.hpp"
 #include "slant_cue.hpp"
@@ -67,6 +68,9 @@ MatcherParams checkParams(const MatcherParams& P) {
 
 struct Matcher::Impl {
   MatcherParams params;
+  /// params as the searches run them for the current frame width (the
+  /// patch size from patchSizeFor).
+  MatcherParams resolved;
   detail::StereoPyramid pyramid;            ///< the pair: left image as reference
   detail::MirroredPyramid mirrored;         ///< the mirrored pair: right image as reference
   detail::SearchPass left;                  ///< the search whose result is published
@@ -77,6 +81,10 @@ struct Matcher::Impl {
   detail::ConsensusCue consensus;
   detail::VariationalRefinement refinement;
   detail::Upsampler upsampler;
+
+  /// Configures the searches for frames `width` px wide; a no-op while the
+  /// resolved patch size stays the same.
+  void configureFor(int width);
 
   /// The finest level of both searches, band by band in the order of
   /// scheduleFinestBands; the check's rows are mirrored just before their band.
@@ -91,6 +99,7 @@ Matcher& Matcher::operator=(Matcher&&) noexcept = default;
 void Matcher::setParams(const MatcherParams& params) {
   params.validate();
   impl_->params = params;
+  impl_->resolved = params;
   impl_->left.configure(params, /*keep_confidence=*/true);
   impl_->check.configure(checkParams(params), /*keep_confidence=*/false);
   impl_->refinement.configure(params.refinement_iterations, params.refinement_smoothness);
@@ -101,7 +110,8 @@ const MatcherParams& Matcher::params() const { return impl_->params; }
 void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& result, const MatchOutputs& outputs) {
   validateInputs(left, right);
   Impl& m = *impl_;
-  const MatcherParams& P = m.params;
+  m.configureFor(left.cols);
+  const MatcherParams& P = m.resolved;
   // Levels that hold at least one patch; the finest level is clamped alike.
   const int levels = detail::levelsThatFit(left.cols, left.rows, P.patch_size, P.coarsest_level + 1);
   const int finest = std::min(P.finestLevelFor(left.cols), levels - 1);
@@ -148,6 +158,19 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   } else {
     result.variance.release();
   }
+}
+
+void Matcher::Impl::configureFor(int width) {
+  const int patch_size = params.patchSizeFor(width);
+  if (patch_size == resolved.patch_size) return;
+  resolved = params;
+  resolved.patch_size = patch_size;
+  // The finest level's grid stays as set (its stride in level px): the
+  // smaller patch changes what each patch sees, not how many there are.
+  const int stride = detail::patchStride(params.patch_size, params.overlap);
+  resolved.overlap = 1.f - static_cast<float>(stride) / static_cast<float>(patch_size);
+  left.configure(resolved, /*keep_confidence=*/true);
+  check.configure(checkParams(resolved), /*keep_confidence=*/false);
 }
 
 void Matcher::Impl::searchFinestLevel(int finest, bool with_check) {

@@ -214,6 +214,31 @@ TEST(ParamsLevels, FinestLevelFollowsTheWidthUnlessSet) {
   EXPECT_EQ(p.finestLevelFor(320), 0);
 }
 
+TEST(ParamsLevels, PatchShrinksWhereTheWidthRoundedTheLevelUp) {
+  MatcherParams p;  // finest_level -1, patch_size 8
+  // Level 1 (up to 904 px, including where the level is clamped to 1) and
+  // an exact power of two keep the patch as set.
+  for (const int width : {160, 320, 640, 800, 904, 1280, 2560}) {
+    SCOPED_TRACE(width);
+    EXPECT_EQ(p.patchSizeFor(width), 8);
+  }
+  // Rounded up: 8 * 1920 / (320 * 8) = 6, 8 * 960 / (320 * 4) = 6.
+  EXPECT_EQ(p.patchSizeFor(1920), 6);
+  EXPECT_EQ(p.patchSizeFor(960), 6);
+  EXPECT_EQ(p.patchSizeFor(2200), 7);
+  // Rounded down (1600 px at level 2 would need 10): never grows.
+  EXPECT_EQ(p.patchSizeFor(1600), 8);
+  // Scaled from the size as set, and not below the smallest valid patch.
+  p.patch_size = 12;
+  EXPECT_EQ(p.patchSizeFor(1920), 9);
+  p.patch_size = 4;
+  EXPECT_EQ(p.patchSizeFor(1920), 4);
+  // An explicit level keeps the patch as set.
+  p.patch_size = 8;
+  p.finest_level = 3;
+  EXPECT_EQ(p.patchSizeFor(1920), 8);
+}
+
 TEST(ParamsValidation, FinestLevelCoarserThanCoarsestIsRejected) {
   MatcherParams p;
   p.coarsest_level = 2;

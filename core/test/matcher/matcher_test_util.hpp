@@ -25,7 +25,7 @@ constexpr int kW = 320;
 constexpr int kH = 240;
 
 /// Full-resolution side of one patch at the finest searched level.
-inline int patchAtFullRes(const MatcherParams& p, int width = 640) { return p.patch_size << p.finestLevelFor(width); }
+inline int patchAtFullRes(const MatcherParams& p, int width = 640) { return p.patchSizeFor(width) << p.finestLevelFor(width); }
 
 /// Margin that keeps every evaluated pixel two patches (at full resolution)
 /// away from the image border, where fewer patches cover a pixel.

@@ -338,6 +338,36 @@ TEST(MatcherReuse, RepeatedAndInterleavedSizesGiveIdenticalResults) {
   EXPECT_TRUE(identical(reused.variance, first.variance));
 }
 
+// A 1920 px frame is searched with a smaller patch than a 640 px one
+// (MatcherParams::patchSizeFor): one matcher switched between the two gives
+// what a fresh matcher gives, and the HD result is the one of that patch size
+// (at the stride of the patch as set) set explicitly.
+TEST(MatcherReuse, WidthsOfDifferentPatchSizesInterleave) {
+  const MatcherParams params;
+  ASSERT_EQ(params.patchSizeFor(640), params.patch_size);
+  ASSERT_LT(params.patchSizeFor(1920), params.patch_size);
+  const StereoPair sd = texturedPair(640, 480, {20.0, 0.0}, 1);
+  const StereoPair hd = texturedPair(1920, 1080, {60.0, 0.0}, 2);
+  const MatchResult fresh_sd = run(params, sd.left, sd.right);
+  const MatchResult fresh_hd = run(params, hd.left, hd.right);
+  Matcher m(params);
+  MatchResult r;
+  for (const StereoPair* pair : {&sd, &hd, &sd, &hd}) {
+    m.compute(pair->left, pair->right, r);
+    const MatchResult& fresh = pair == &sd ? fresh_sd : fresh_hd;
+    EXPECT_TRUE(identical(r.disparity, fresh.disparity));
+    EXPECT_TRUE(identical(r.confidence, fresh.confidence));
+  }
+  EXPECT_EQ(m.params().patch_size, params.patch_size) << "the parameters as set are reported";
+
+  MatcherParams explicit_hd = params;
+  explicit_hd.finest_level = params.finestLevelFor(1920);
+  explicit_hd.patch_size = params.patchSizeFor(1920);
+  explicit_hd.lr_check_tolerance = params.checkToleranceFor(1920);
+  explicit_hd.overlap = 0.5f;  // 6 px patches at the 8 px patches' stride of 3
+  EXPECT_TRUE(identical(run(explicit_hd, hd.left, hd.right).disparity, fresh_hd.disparity));
+}
+
 // A node computes only the subscribed maps: the ones left out come back
 // empty, the others as with every map, on one matcher switched between frames
 // (an output width that is a power-of-two multiple of the level's and one
