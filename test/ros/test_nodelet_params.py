@@ -98,7 +98,7 @@ class TestNodeletParams(unittest.TestCase):
             for text in ("parameter server /bad/bdis: parameter preset = 'turbo' is unknown: expected one of "
                          "fast, balanced, accurate; using 'balanced'",
                          "parameter patch_size = 1000 is out of range [4, 32]: patch side p, px at each level; "
-                         "using 8",
+                         "smaller where finest_level -1 rounds the level up (6 at 1920 px); using 8",
                          "parameter overlap = 'lots' must be a number",
                          "parameter iterations = 2.5 must be a whole number",
                          "parameter sigma_r = nan is not a finite number",
