@@ -44,6 +44,8 @@ constexpr const char* kUsage = R"(usage: bdis_node_bench --bag FILE --label NAME
   --outputs LIST     subscribed outputs, relative to NS (default disparity,depth/image_rect,points2)
   --node-core N      report how busy CPU core N (the node's) was while measuring (Linux)
   --json FILE        append the result as one JSON line
+  --latencies FILE   write one line per measured frame: its send time (ms after the
+                     first), then each output's latency in ms (-1: never came)
 )";
 
 struct Frame {
@@ -52,7 +54,7 @@ struct Frame {
 };
 
 struct Options {
-  std::string bag, label, ns = "/stereo", bag_ns = "/stereo", json;
+  std::string bag, label, ns = "/stereo", bag_ns = "/stereo", json, latencies;
   double rate = 60, seconds = 20, warmup = 3;
   size_t frames = 0;  // 0: seconds * rate
   int node_core = -1;  // -1: not reported
@@ -184,6 +186,12 @@ class Arrivals {
     auto it = received_.find(topic);
     return it == received_.end() ? 0 : it->second;
   }
+  /// When roscpp received each topic's message of `stamp` (0: never).
+  std::vector<uint64_t> receivedAt(uint64_t stamp) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = arrivals_.find(stamp);
+    return it == arrivals_.end() ? std::vector<uint64_t>(topics_, 0) : it->second.received;
+  }
   /// Latest arrival of all topics (received, or handled), or 0 if one never came.
   uint64_t complete(uint64_t stamp, bool handled = false) const {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -217,6 +225,22 @@ ros::Subscriber subscribeArrivals(ros::NodeHandle& nh, const std::string& topic,
   return nh.subscribe<M>(topic, 5, callback, ros::VoidConstPtr(), hints);
 }
 
+/// One line per measured frame: send time after the first, each output's latency (ms).
+void writeLatencies(const std::string& path, const std::vector<std::string>& outputs,
+                    const std::vector<uint64_t>& stamps, size_t first_measured, const Arrivals& arrivals) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot write " + path);
+  out << "# sent_ms";
+  for (const std::string& name : outputs) out << " " << name;
+  out << "\n";
+  for (size_t k = first_measured; k < stamps.size(); ++k) {
+    if (stamps[k] == 0) continue;
+    out << 1e-6 * static_cast<double>(stamps[k] - stamps[first_measured]);
+    for (uint64_t t : arrivals.receivedAt(stamps[k])) out << " " << (t ? 1e-6 * static_cast<double>(t - stamps[k]) : -1.0);
+    out << "\n";
+  }
+}
+
 int run(int argc, char** argv) {
   Options o;
   for (int i = 1; i < argc; ++i) {
@@ -236,6 +260,7 @@ int run(int argc, char** argv) {
     else if (a == "--outputs") o.outputs = split(value());
     else if (a == "--node-core") o.node_core = std::stoi(value());
     else if (a == "--json") o.json = value();
+    else if (a == "--latencies") o.latencies = value();
     else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
     else throw std::invalid_argument("unknown option " + a);
   }
@@ -344,6 +369,7 @@ int run(int argc, char** argv) {
               percentile(latency_ms, 50), percentile(latency_ms, 95), percentile(latency_ms, 99),
               latency_ms.empty() ? 0.0 : *std::max_element(latency_ms.begin(), latency_ms.end()), processing_text,
               percentile(handled_ms, 99), core_text);
+  if (!o.latencies.empty()) writeLatencies(o.latencies, o.outputs, stamps, first_measured, arrivals);
   if (late > total / 20) std::fprintf(stderr, "bdis_node_bench: %zu of %zu frames left late (> 2 ms)\n", late, total);
   if (!o.json.empty()) {
     std::ofstream js(o.json, std::ios::app);

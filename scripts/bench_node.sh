@@ -11,18 +11,20 @@
 # publishing, not the transport); core = how busy the node's core was while
 # measuring (/proc/stat, kernel work for it included). --size WxH replays the
 # same scene rendered at that size instead (bdis_synth, 8 frames), e.g.
-# --size 1920x1080 --rate 30 for an HD endoscope.
-#   scripts/bench_node.sh [--rate HZ] [--seconds S] [--size WxH] [--json FILE]
+# --size 1920x1080 --rate 30 for an HD endoscope. --latencies DIR writes each
+# row's per-frame latencies to DIR/<row>.txt (send time, then each output's).
+#   scripts/bench_node.sh [--rate HZ] [--seconds S] [--size WxH] [--json FILE] [--latencies DIR]
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
-RATE=60 SECONDS_MEASURED=20 JSON="" SIZE=""
-usage="usage: $0 [--rate HZ] [--seconds S] [--size WxH] [--json FILE]"
+RATE=60 SECONDS_MEASURED=20 JSON="" SIZE="" LATENCIES=""
+usage="usage: $0 [--rate HZ] [--seconds S] [--size WxH] [--json FILE] [--latencies DIR]"
 while [ $# -gt 0 ]; do
   case "$1" in
     --rate) RATE="$2"; shift 2 ;;
     --seconds) SECONDS_MEASURED="$2"; shift 2 ;;
     --json) JSON="$2"; shift 2 ;;
     --size) SIZE="$2"; shift 2 ;;
+    --latencies) LATENCIES="$2"; shift 2 ;;
     *) echo "$usage" >&2; exit 2 ;;
   esac
 done
@@ -33,6 +35,7 @@ if [ -n "$SIZE" ] && ! [[ "$SIZE" =~ ^[1-9][0-9]*x[1-9][0-9]*$ ]]; then
 fi
 
 prepare_ros_run
+if [ -n "$LATENCIES" ]; then mkdir -p "$LATENCIES" && LATENCIES="$(cd "$LATENCIES" && pwd)"; fi
 
 work="$(mktemp -d /tmp/bdis_bench_node.XXXXXX)"
 trap 'rm -rf "$work"' EXIT
@@ -64,7 +67,8 @@ run_one() {  # label, launch args...
     port="$(free_port)"
     ROS_MASTER_URI="http://127.0.0.1:$port" roslaunch -p "$port" bdis_stereo node_bench.launch \
         bag:="$work/sample.bag" label:="$label" json:="$json" rate:="$RATE" seconds:="$SECONDS_MEASURED" \
-        node_core:="$node_core" bench_core:=0 "$@" >"$work/$label.log" 2>&1 || true
+        node_core:="$node_core" bench_core:=0 ${LATENCIES:+latencies:="$LATENCIES/$label.txt"} "$@" \
+        >"$work/$label.log" 2>&1 || true
     grep -E "^$label " "$work/$label.log" && return 0
     # stereo_image_proc's manager sometimes aborts while two nodelets load
     # image_transport plugins at once ("no factory exists"): once more.
