@@ -85,6 +85,8 @@ struct Matcher::Impl {
   /// Configures the searches for frames `width` px wide; a no-op while the
   /// resolved patch size stays the same.
   void configureFor(int width);
+  /// Both searches from `resolved`.
+  void configureSearches();
 
   /// The finest level of both searches, band by band in the order of
   /// scheduleFinestBands; the check's rows are mirrored just before their band.
@@ -100,8 +102,7 @@ void Matcher::setParams(const MatcherParams& params) {
   params.validate();
   impl_->params = params;
   impl_->resolved = params;
-  impl_->left.configure(params, /*keep_confidence=*/true);
-  impl_->check.configure(checkParams(params), /*keep_confidence=*/false);
+  impl_->configureSearches();
   impl_->refinement.configure(params.refinement_iterations, params.refinement_smoothness);
 }
 
@@ -164,11 +165,17 @@ void Matcher::Impl::configureFor(int width) {
   const int patch_size = params.patchSizeFor(width);
   if (patch_size == resolved.patch_size) return;
   resolved = params;
-  resolved.patch_size = patch_size;
-  // The finest level's grid stays as set (its stride in level px): the
-  // smaller patch changes what each patch sees, not how many there are.
-  const int stride = detail::patchStride(params.patch_size, params.overlap);
-  resolved.overlap = 1.f - static_cast<float>(stride) / static_cast<float>(patch_size);
+  if (patch_size != params.patch_size) {
+    resolved.patch_size = patch_size;
+    // The finest level's grid stays as set (its stride in level px): the
+    // smaller patch changes what each patch sees, not how many there are.
+    const int stride = detail::patchStride(params.patch_size, params.overlap);
+    resolved.overlap = 1.f - static_cast<float>(stride) / static_cast<float>(patch_size);
+  }
+  configureSearches();
+}
+
+void Matcher::Impl::configureSearches() {
   left.configure(resolved, /*keep_confidence=*/true);
   check.configure(checkParams(resolved), /*keep_confidence=*/false);
 }
