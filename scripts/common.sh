@@ -18,8 +18,8 @@ log() { printf '\033[1m[bdis]\033[0m %s\n' "$*" >&2; }
 DEBIAN_PACKAGES=(
   catkin python3-catkin-pkg ros-base-dev libopencv-dev
   libgtest-dev googletest libbenchmark-dev
-  # the package's lint (scripts/test.sh)
-  catkin-lint
+  # the package's lint (scripts/test.sh): catkin_lint, and rosdep with Debian's map of the ROS keys
+  catkin-lint python3-rosdep2
   # ROS layer: nodelet, its build and run dependencies, launch and bag tools
   libnodelet-dev libnodeletlib-dev libnodeletlib-tools pluginlib-dev libimage-transport-dev
   libmessage-filters-dev libimage-geometry-dev libstereo-msgs-dev libtf2-dev libtf2-ros-dev
