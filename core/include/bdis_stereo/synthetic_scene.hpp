@@ -60,7 +60,7 @@ struct SceneConfig {
 
   /// Named configurations used by the tests, the benchmarks and the demo:
   /// "sample" (the defaults: the demo's embedded sample), "diffuse", "specular",
-  /// "dark_periphery", "textureless", "instrument", "tube". Throws
+  /// "dark_periphery", "textureless", "instrument", "tube", "dark_tube". Throws
   /// std::invalid_argument for an unknown name.
   static SceneConfig variant(const std::string& name);
   static std::vector<std::string> variantNames();

@@ -75,6 +75,14 @@ SceneConfig SceneConfig::variant(const std::string& name) {
     c.scene = SceneType::Tube;
     c.lighting = Lighting::Specular;
     c.instrument = true;
+  } else if (name == "dark_tube") {
+    // The tube under dark_periphery's beam: the near wall, seen at a grazing
+    // angle, sinks into the dark, as in the colon sequences' periphery.
+    c.scene = SceneType::Tube;
+    c.lighting = Lighting::Specular;
+    c.instrument = true;
+    c.light_spot = 30.0;
+    c.exposure = 0.5;
   } else {
     std::string names;
     for (const std::string& n : variantNames()) names += (names.empty() ? "" : ", ") + n;
@@ -84,7 +92,7 @@ SceneConfig SceneConfig::variant(const std::string& name) {
 }
 
 std::vector<std::string> SceneConfig::variantNames() {
-  return {"sample", "diffuse", "specular", "dark_periphery", "textureless", "instrument", "tube"};
+  return {"sample", "diffuse", "specular", "dark_periphery", "textureless", "instrument", "tube", "dark_tube"};
 }
 
 const char* toString(SceneType s) { return s == SceneType::Tissue ? "tissue" : "tube"; }

@@ -83,6 +83,30 @@ TEST(Appearance, DarkPeripheryVariantIsDarkAtTheBorderAndLitInTheMiddle) {
   EXPECT_EQ(cv::countNonZero(g == 0), 0);
 }
 
+TEST(Appearance, DarkTubeVariantHidesTheNearWallInTheDark) {
+  // The near wall (ground truth >= 60 px, 2.2 cm or closer) lies off the
+  // beam's axis: most of it is dark, as in the colon sequences' periphery.
+  // Measured on frames 0 and 5: share of the pixels with ground truth that
+  // are dark (grey < 30) 64 %, of the near wall's 74 %.
+  long known = 0, dark = 0, near = 0, near_dark = 0;
+  for (int i : {0, 5}) {
+    const SyntheticFrame& f = cachedFrame(variant("dark_tube"), i);
+    const cv::Mat g = grey(f.left);
+    const cv::Mat is_dark = g < 30, has_gt = knownMask(f), is_near = f.gt >= 60.f;
+    known += cv::countNonZero(has_gt);
+    dark += cv::countNonZero(has_gt & is_dark);
+    near += cv::countNonZero(is_near);
+    near_dark += cv::countNonZero(is_near & is_dark);
+    EXPECT_EQ(cv::countNonZero(g == 0), 0) << "dark, never outside the view";
+  }
+  const double dark_share = static_cast<double>(dark) / known, near_dark_share = static_cast<double>(near_dark) / near;
+  std::printf("dark tube: %.1f %% of the pixels with ground truth dark, %.1f %% of the near wall (%ld px)\n",
+              100 * dark_share, 100 * near_dark_share, near);
+  EXPECT_GT(near, 20000);
+  EXPECT_GT(dark_share, 0.5);
+  EXPECT_GT(near_dark_share, 0.6);
+}
+
 TEST(Appearance, TexturelessPatchHasNoTexture) {
   // High-pass energy (grey minus a 2 px Gaussian blur) of the noise-free
   // diffuse render inside the patch (eroded) vs the rest of the tissue.
