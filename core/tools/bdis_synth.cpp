@@ -25,8 +25,8 @@ options:
   --out DIR              output folder (created; refused if it holds frames, see --overwrite)
   --variant NAME         start from a named configuration: sample (default), diffuse,
                          specular, dark_periphery, textureless, instrument, tube,
-                         dark_tube;
-                         the options below override it
+                         dark_tube; the options below override it
+  --list-variants        print the variants' names, one per line, and exit
   --scene NAME           tissue | tube
   --lighting NAME        diffuse | specular
   --frames N             number of frames (30 frames per second of scene time)
@@ -81,6 +81,9 @@ int run(int argc, char** argv) {
     const std::string a = argv[i];
     if (a == "-h" || a == "--help") {
       std::cout << kUsage;
+      return 0;
+    } else if (a == "--list-variants") {
+      for (const std::string& name : synth::SceneConfig::variantNames()) std::cout << name << '\n';
       return 0;
     } else if (a == "--variant") {
       ++i;
