@@ -353,6 +353,50 @@ class TestDemo(unittest.TestCase):
         self.assertEqual(missing.returncode, 1, missing.stdout)
         self.assertIn("cannot read", missing.stdout)
 
+    def test_9_eval_generated_renders_once_and_scores_every_scene(self):
+        """scripts/eval_generated.sh: each variant and seed rendered into the
+        cache and scored in one bdis_eval run under its own name, the bdis_eval
+        options passed on; the same call again reuses the renders, another
+        frame count renders anew; an unknown variant fails with bdis_synth's
+        message and leaves nothing in the cache."""
+        cache = os.path.join(self.tmp, "generated")
+        script = os.path.join(REPO, "scripts", "eval_generated.sh")
+        env = dict(os.environ, BDIS_GENERATED_DIR=cache, BDIS_SKIP_BUILD="1")
+
+        def run(variants, frames, json_path):
+            return subprocess.run(["bash", script, "--variants", variants, "--seeds", "3", "--frames", str(frames),
+                                   "--no-shared", "--", "--methods", "bdis", "--json", json_path],
+                                  env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+        def scores(json_path):
+            with open(json_path) as f:
+                return {(r["sequence"], r["frames"]): r["bad2"] for r in json.load(f)["results"]}
+
+        first = run("diffuse dark_tube", 1, os.path.join(self.tmp, "first.json"))
+        self.assertEqual(first.returncode, 0, first.stderr)
+        self.assertIn("rendering diffuse, seed 3, 1 frames", first.stderr)
+        self.assertIn("rendering dark_tube, seed 3, 1 frames", first.stderr)
+        self.assertRegex(first.stdout, r"diffuse_s3 +bdis +1 ")
+        self.assertRegex(first.stdout, r"dark_tube_s3 +bdis +1 ")
+        first_scores = scores(os.path.join(self.tmp, "first.json"))
+        self.assertEqual(set(first_scores), {("diffuse_s3", 1), ("dark_tube_s3", 1)})
+        self.assertGreater(first_scores[("dark_tube_s3", 1)], first_scores[("diffuse_s3", 1)])
+
+        again = run("diffuse dark_tube", 1, os.path.join(self.tmp, "again.json"))
+        self.assertEqual(again.returncode, 0, again.stderr)
+        self.assertNotIn("rendering", again.stderr)
+        self.assertEqual(scores(os.path.join(self.tmp, "again.json")), first_scores)
+
+        more = run("diffuse", 2, os.path.join(self.tmp, "more.json"))
+        self.assertEqual(more.returncode, 0, more.stderr)
+        self.assertIn("rendering diffuse, seed 3, 2 frames", more.stderr)
+        self.assertEqual(set(scores(os.path.join(self.tmp, "more.json"))), {("diffuse_s3", 2)})
+
+        unknown = run("nope", 1, os.path.join(self.tmp, "unknown.json"))
+        self.assertNotEqual(unknown.returncode, 0)
+        self.assertIn("unknown scene variant 'nope'", unknown.stderr)
+        self.assertFalse(os.path.exists(os.path.join(cache, "nope_s3")))
+
 
 if __name__ == "__main__":
     import rosunit
