@@ -84,7 +84,7 @@ TEST(Appearance, DarkPeripheryVariantIsDarkAtTheBorderAndLitInTheMiddle) {
 }
 
 TEST(Appearance, DarkTubeVariantHidesTheNearWallInTheDark) {
-  // The near wall (ground truth >= 60 px, 2.2 cm or closer) lies off the
+  // The near wall (ground truth >= 60 px: 4.3 cm or closer) lies off the
   // beam's axis: most of it is dark, as in the colon sequences' periphery.
   // Measured on frames 0 and 5: share of the pixels with ground truth that
   // are dark (grey < 30) 64 %, of the near wall's 74 %.
