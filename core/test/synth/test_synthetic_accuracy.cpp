@@ -92,8 +92,8 @@ TEST_P(SyntheticAccuracy, DefaultParamsMeetTheMeasuredBar) {
 //   instrument      bdis 0.919 / 0.113 /  3.1% / 10.9%   (4.0% / 12.0%)   dis_fast 1.000 / 0.247 / 11.5% / 11.5%
 //   tube            bdis 0.869 / 0.432 /  9.7% / 21.5%  (11.2% / 21.9%)   dis_fast 0.989 / 0.924 / 29.1% / 29.9%
 //   dark_tube       bdis 0.694 / 0.768 / 22.2% / 46.0%                    dis_fast 1.000 / 1.944 / 49.3% / 49.3%
-// dark_tube (added later) is the colon-like failure class: the near wall at
-// a grazing angle in the dark; its bar is set at what it scores, to hold it.
+// dark_tube is the colon-like failure class, the near wall at a grazing angle
+// in the dark: its bar holds what it scores, no better than that.
 // The dark periphery is the variant where a guess is most tempting: there
 // BDIS must publish fewer outliers than DIS fast, which publishes everything.
 INSTANTIATE_TEST_SUITE_P(
@@ -257,7 +257,6 @@ TEST(SyntheticBehaviour, ConfidenceRanksTheErrors) {
   //   tube           2.0 %: 40.7 18.9 13.3 8.2 5.8 3.5 2.7 2.2 1.3 0.3; 0.0275, 5.62
   //   dark_periphery 0.0 %: 27.0 13.9  8.9 3.9 1.2 0.1 0.0 0.0 0.0 0.0; 0.0084, 5.12
   //   dark_tube      9.0 %: 55.0 38.9 31.3 28.2 23.3 18.1 13.6 8.6 3.7 0.9; 0.0937, 3.48
-  // (dark_tube, the near wall in the dark, was added after the cues below.)
   // The ratios grew with the refinement (from 1.78, 4.88 and 2.95) while
   // every decile fell: it mends estimates the confidence already held low,
   // which shrinks the oracle's area more than the confidence's. The area
