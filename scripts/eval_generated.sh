@@ -27,7 +27,7 @@ while [ $# -gt 0 ]; do
     --seeds) seeds="${2:?--seeds needs a list}"; shift 2 ;;
     --frames) frames="${2:?--frames needs a number}"; shift 2 ;;
     --no-shared) shared=0; shift ;;
-    -h | --help) sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h | --help) sed -n '2,/^[^#]/s/^# \{0,1\}//p' "$0"; exit 0 ;;
     --) shift; break ;;
     *) break ;;
   esac

@@ -23,9 +23,8 @@ a breathing tissue surface, specular lighting, an instrument, 30 frames at 640x4
 
 options:
   --out DIR              output folder (created; refused if it holds frames, see --overwrite)
-  --variant NAME         start from a named configuration: sample (default), diffuse,
-                         specular, dark_periphery, textureless, instrument, tube,
-                         dark_tube; the options below override it
+  --variant NAME         start from a named configuration (default: sample, the demo's);
+                         the options below override it
   --list-variants        print the variants' names, one per line, and exit
   --scene NAME           tissue | tube
   --lighting NAME        diffuse | specular

@@ -49,6 +49,16 @@ void SceneConfig::validate() const {
   if (textureless_patch && scene != SceneType::Tissue) bad("textureless_patch needs the tissue scene");
 }
 
+namespace {
+
+// A narrow beam and a low exposure: the periphery sinks to a few grey levels.
+void useDarkBeam(SceneConfig& c) {
+  c.light_spot = 30.0;
+  c.exposure = 0.5;
+}
+
+}  // namespace
+
 SceneConfig SceneConfig::variant(const std::string& name) {
   SceneConfig c;
   if (name == "sample") return c;
@@ -61,10 +71,8 @@ SceneConfig SceneConfig::variant(const std::string& name) {
   } else if (name == "specular") {
     c.lighting = Lighting::Specular;
   } else if (name == "dark_periphery") {
-    // A narrow beam and a low exposure: the periphery sinks to a few grey levels.
     c.lighting = Lighting::Diffuse;
-    c.light_spot = 30.0;
-    c.exposure = 0.5;
+    useDarkBeam(c);
   } else if (name == "textureless") {
     c.lighting = Lighting::Diffuse;
     c.textureless_patch = true;
@@ -76,13 +84,10 @@ SceneConfig SceneConfig::variant(const std::string& name) {
     c.lighting = Lighting::Specular;
     c.instrument = true;
   } else if (name == "dark_tube") {
-    // The tube under dark_periphery's beam: the near wall, seen at a grazing
-    // angle, sinks into the dark, as in the colon sequences' periphery.
-    c.scene = SceneType::Tube;
-    c.lighting = Lighting::Specular;
-    c.instrument = true;
-    c.light_spot = 30.0;
-    c.exposure = 0.5;
+    // The near wall, seen at a grazing angle, sinks into the dark, as in the
+    // colon sequences' periphery.
+    c = variant("tube");
+    useDarkBeam(c);
   } else {
     std::string names;
     for (const std::string& n : variantNames()) names += (names.empty() ? "" : ", ") + n;

@@ -91,18 +91,13 @@ TEST_F(BdisSynthTool, HelpExitsZero) {
   EXPECT_TRUE(contains(r.out, "usage: bdis_synth --out DIR"));
 }
 
-TEST_F(BdisSynthTool, ListsEveryVariantTheHelpNames) {
+TEST_F(BdisSynthTool, ListsEveryVariant) {
   const RunResult r = run({"--list-variants"});
   EXPECT_EQ(r.code(), 0);
   std::string expected;
   for (const std::string& name : bdis::synth::SceneConfig::variantNames()) expected += name + "\n";
   EXPECT_EQ(r.out, expected);
-  const std::string help = run({"--help"}).out;
-  for (const std::string& name : bdis::synth::SceneConfig::variantNames()) {
-    bool named = false;
-    for (const char* after : {",", ";", " (default)"}) named = named || contains(help, " " + name + after);
-    EXPECT_TRUE(named) << name;
-  }
+  EXPECT_TRUE(contains(run({"--help"}).out, "--list-variants"));
 }
 
 TEST_F(BdisSynthTool, CommandLineErrorsExitNonZeroWithAMessage) {
