@@ -216,7 +216,7 @@ MatcherParams MatcherParams::preset(const std::string& name) {
     // Two Gauss-Newton steps and the higher floor: with the denser search
     // and two refinement steps they keep bad2 lowest (docs/method.md).
     p.iterations = 2;
-    p.confidence_floor = 0.015f;
+    p.confidence_floor = 0.02f;
     return p;
   }
   throw std::invalid_argument("unknown preset '" + name + "': expected one of " + presetList());

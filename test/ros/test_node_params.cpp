@@ -215,7 +215,7 @@ TEST(NodeParams, EffectiveValuesGoBackTypedAndReadable) {
   EXPECT_EQ(back["mean_normalization"].getType(), XmlRpcValue::TypeBoolean);
   EXPECT_EQ(back["overlap"].getType(), XmlRpcValue::TypeDouble);
   EXPECT_EQ(static_cast<double>(back["overlap"]), 0.6);  // as the float prints, not 0.60000002
-  EXPECT_EQ(static_cast<double>(back["confidence_floor"]), 0.0075);
+  EXPECT_EQ(static_cast<double>(back["confidence_floor"]), 0.0175);
   EXPECT_EQ(back["target_frame"].getType(), XmlRpcValue::TypeString);
   // What goes back reads back as the same parameters, without a report.
   FakeServer again;

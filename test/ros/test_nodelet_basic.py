@@ -296,7 +296,7 @@ class TestNodeletBasic(unittest.TestCase):
             # A preset sets every field.
             cfg = client.update_configuration({"preset": "fast"})
             self.assertAlmostEqual(cfg["overlap"], 0.4, places=5)
-            self.assertAlmostEqual(cfg["confidence_floor"], 0.0075, places=5)
+            self.assertAlmostEqual(cfg["confidence_floor"], 0.0175, places=5)
             self.assertFalse(cfg["compute_variance"])
             self.assertAlmostEqual(cfg["sigma_r"], 0.5, places=5)
             _, msg = self.processed(disp)

@@ -45,13 +45,13 @@ struct MatcherParams {
   /// out like black ones; 256 = none.
   int saturation_grey = 255;
   int window_half_width = 2;       ///< n: posterior window has 2n+1 samples
-  float window_step = 1.0f;        ///< delta: spacing of window samples, px at the level
+  float window_step = 2.0f;        ///< delta: spacing of window samples, px at the level
   float sigma_r = 0.5f;            ///< brightness noise, grey levels
   float contrast_share = 0.3f;     ///< see above; 0 = paper's fixed-noise posterior
   float sigma_s = 4.0f;            ///< spatial Gaussian inside a patch, px at the level
   /// Pixels whose patches' mean evidence is lower get no disparity. Low,
   /// because the refinement mends most low-evidence estimates.
-  float confidence_floor = 0.0075f;
+  float confidence_floor = 0.0175f;
   float lr_check_tolerance = 3.f;  ///< left-right check, full-resolution px; 0 = off
   float lr_check_overlap = 0.4f;   ///< patch overlap of the check's search from the right image
   bool compute_variance = false;   ///< also output per-pixel disparity variance (px^2)

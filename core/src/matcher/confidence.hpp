@@ -42,7 +42,7 @@ constexpr float kConsensusHalvingPx = kSpreadHalvingPx;
 /// shares of the squared spread and left-right difference (which it missed
 /// where the outliers are). Shares chosen on the generated colon scene
 /// (bdis_synth --variant tube): 80 % of the errors within 1 sigma, 92 % within 2.
-constexpr float kWindowVarianceShare = 0.08f;
+constexpr float kWindowVarianceShare = 0.03f;
 constexpr float kSpreadVarianceShare = 0.75f;
 constexpr float kLeftRightVarianceShare = 0.75f;
 
