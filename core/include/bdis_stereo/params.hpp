@@ -45,7 +45,10 @@ struct MatcherParams {
   /// out like black ones; 256 = none.
   int saturation_grey = 255;
   int window_half_width = 2;       ///< n: posterior window has 2n+1 samples
-  float window_step = 2.0f;        ///< delta: spacing of window samples, px at the level
+  /// delta: spacing of the window samples, px at the level. 2, not the
+  /// paper's 1: the local-minimum test and the posterior then see the
+  /// alternatives 2-4 px away, where most wrong estimates lie.
+  float window_step = 2.0f;
   float sigma_r = 0.5f;            ///< brightness noise, grey levels
   float contrast_share = 0.3f;     ///< see above; 0 = paper's fixed-noise posterior
   float sigma_s = 4.0f;            ///< spatial Gaussian inside a patch, px at the level
