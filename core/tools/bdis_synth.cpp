@@ -41,6 +41,7 @@ options:
   --exposure E           light power factor (default 1)
   --motion M             motion speed factor, 0 = static (default 1)
   --supersampling N      N x N samples on edges and highlight borders (default 3)
+  --jpeg-quality Q       store each view as a JPEG of quality Q, 1..100, decoded (default 0: not)
   --overwrite            replace the NNNNNN.png frames already in DIR
   -q, --quiet            no progress bar
 )";
@@ -126,6 +127,8 @@ int run(int argc, char** argv) {
       cfg.motion = parseDouble(a, optionValue(i, argc, argv));
     } else if (a == "--supersampling") {
       cfg.supersampling = toInt(a, optionValue(i, argc, argv));
+    } else if (a == "--jpeg-quality") {
+      cfg.jpeg_quality = toInt(a, optionValue(i, argc, argv));
     } else if (a == "--overwrite") {
       overwrite = true;
     } else if (a == "-q" || a == "--quiet") {

@@ -1,6 +1,7 @@
 // Synthetic surgical stereo with exact per-pixel ground truth: a deterministic
 // (seeded) ray-casting renderer of endoscopic scenes for the tests, the
-// benchmarks and the demo's embedded sample. ROS-free; OpenCV core only.
+// benchmarks and the demo's embedded sample. ROS-free; OpenCV core and, for
+// the optional JPEG round trip, imgcodecs.
 //
 // Geometry: a curved, gently breathing tissue surface seen from a few cm, or a
 // colon-like tube with the camera moving along it; optionally a surgical
@@ -9,7 +10,8 @@
 // same point has the same albedo in both views); a point light at the scope
 // tip with inverse-square falloff; an optional Blinn-Phong specular term that
 // puts the highlights at different surface points in the two views; Gaussian
-// sensor noise; optional black borders as rectification leaves them.
+// sensor noise; optional black borders as rectification leaves them; optionally
+// each view stored as a JPEG, as recorded and streamed endoscope video often is.
 //
 // Cameras: rectified, parallel pinhole pair, left at the origin of its optical
 // frame (x right, y down, z forward), right at +baseline along x, same K.
@@ -50,6 +52,7 @@ struct SceneConfig {
   double exposure = 1.0;       ///< multiplies the light power (< 1: darker, noisier periphery)
   double motion = 1.0;         ///< scales camera, breathing and instrument motion per frame (0 = static)
   int supersampling = 3;       ///< n: n x n samples on edges and highlight borders (1 = off)
+  int jpeg_quality = 0;        ///< each view encoded and decoded as JPEG at this quality, 1..100 (0 = not)
 
   /// fx = fy in px (resolves focal = 0).
   double focalPx() const;
@@ -60,7 +63,8 @@ struct SceneConfig {
 
   /// Named configurations used by the tests, the benchmarks and the demo:
   /// "sample" (the defaults: the demo's embedded sample), "diffuse", "specular",
-  /// "dark_periphery", "textureless", "instrument", "tube", "dark_tube". Throws
+  /// "dark_periphery", "textureless", "instrument", "tube", "dark_tube",
+  /// "compressed_dark" (dark_periphery as JPEG at quality 75). Throws
   /// std::invalid_argument for an unknown name.
   static SceneConfig variant(const std::string& name);
   static std::vector<std::string> variantNames();
@@ -77,7 +81,9 @@ enum Label : uint8_t { kLabelNone = 0, kLabelTissue = 1, kLabelInstrument = 2 };
 
 /// One rendered stereo frame and what is known about it.
 struct SyntheticFrame {
-  cv::Mat left;          ///< CV_8UC3 BGR; black (0) outside the rectified view, >= 1 inside
+  /// CV_8UC3 BGR; black (0) outside the rectified view, >= 1 inside (also after
+  /// JPEG: the codec's ringing into the border is cleared)
+  cv::Mat left;
   cv::Mat right;         ///< CV_8UC3 BGR
   /// CV_32FC1 left disparity fx * B / Z at each pixel centre, px; 0 = unknown:
   /// black border (either view), match outside the right image, occluded in the

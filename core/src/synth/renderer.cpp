@@ -2,13 +2,16 @@
 // tiles to a proven-free start, then sphere-traced and bracketed to
 // 1e-12 m), shading with band-limited procedural textures, n x n
 // supersampling where the centre samples show a geometric edge or a
-// highlight border, then tone mapping, noise and black borders. The left
+// highlight border, then tone mapping, noise, black borders and optionally a
+// JPEG round trip. The left
 // centre rays are the ground-truth rays; occlusion in the right view is
 // checked by casting the right camera's ray through each left surface point.
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+
+#include <opencv2/imgcodecs.hpp>
 
 #include "bdis_stereo/synthetic_scene.hpp"
 #include "scene.hpp"
@@ -47,6 +50,9 @@ void SceneConfig::validate() const {
     bad("supersampling = " + std::to_string(supersampling) + " is out of range [1, 8]");
   }
   if (textureless_patch && scene != SceneType::Tissue) bad("textureless_patch needs the tissue scene");
+  if (jpeg_quality < 0 || jpeg_quality > 100) {
+    bad("jpeg_quality = " + std::to_string(jpeg_quality) + " is out of range: 0 (none) or [1, 100]");
+  }
 }
 
 namespace {
@@ -88,6 +94,12 @@ SceneConfig SceneConfig::variant(const std::string& name) {
     // colon sequences' periphery.
     c = variant("tube");
     useDarkBeam(c);
+  } else if (name == "compressed_dark") {
+    // Quality 75, a common encoder default: in the dark most of the texture
+    // falls below the codec's quantisation steps and the 8 x 8 block grid
+    // remains, at the same image position in both views.
+    c = variant("dark_periphery");
+    c.jpeg_quality = 75;
   } else {
     std::string names;
     for (const std::string& n : variantNames()) names += (names.empty() ? "" : ", ") + n;
@@ -97,7 +109,8 @@ SceneConfig SceneConfig::variant(const std::string& name) {
 }
 
 std::vector<std::string> SceneConfig::variantNames() {
-  return {"sample", "diffuse", "specular", "dark_periphery", "textureless", "instrument", "tube", "dark_tube"};
+  return {"sample",     "diffuse", "specular",  "dark_periphery", "textureless",
+          "instrument", "tube",    "dark_tube", "compressed_dark"};
 }
 
 const char* toString(SceneType s) { return s == SceneType::Tissue ? "tissue" : "tube"; }
@@ -379,6 +392,27 @@ struct SyntheticRenderer::Impl {
     }
   }
 
+  /// The view through a JPEG encoder and decoder at cfg.jpeg_quality. The
+  /// border is restored to exactly 0 and a view pixel decoded as pure black
+  /// to 1, so that black still means "outside the view" and nothing else.
+  void compress(int which, cv::Mat& image) const {
+    std::vector<uchar> encoded;
+    if (!cv::imencode(".jpg", image, encoded, {cv::IMWRITE_JPEG_QUALITY, cfg.jpeg_quality})) {
+      throw std::runtime_error("synthetic scene: JPEG encoding failed");
+    }
+    cv::imdecode(encoded, cv::IMREAD_COLOR, &image);
+    for (int y = 0; y < image.rows; ++y) {
+      cv::Vec3b* row = image.ptr<cv::Vec3b>(y);
+      for (int x = 0; x < image.cols; ++x) {
+        if (!insideView(which, x, y)) {
+          row[x] = cv::Vec3b(0, 0, 0);
+        } else if (row[x] == cv::Vec3b(0, 0, 0)) {
+          row[x] = cv::Vec3b(1, 1, 1);
+        }
+      }
+    }
+  }
+
   void render(int index, SyntheticFrame& out) const {
     if (index < 0) throw std::invalid_argument("frame index must be >= 0");
     const detail::FrameState fs = scene.frameState(index);
@@ -387,6 +421,10 @@ struct SyntheticRenderer::Impl {
     renderCamera(1, fs, R);
     toImage(0, index, L, out.left);
     toImage(1, index, R, out.right);
+    if (cfg.jpeg_quality > 0) {
+      compress(0, out.left);
+      compress(1, out.right);
+    }
 
     const int W = cfg.width, H = cfg.height;
     out.gt.create(H, W, CV_32FC1);

@@ -55,6 +55,7 @@ std::string cameraYaml(const SceneConfig& c) {
     << "# synth_exposure: " << number(c.exposure) << "\n"
     << "# synth_motion: " << number(c.motion) << "\n"
     << "# synth_supersampling: " << c.supersampling << "\n"
+    << "# synth_jpeg_quality: " << c.jpeg_quality << "\n"
     << "# synth_frame_rate: 30.0\n"
     << "image_width: " << c.width << "\n"
     << "image_height: " << c.height << "\n"

@@ -5,6 +5,9 @@
 // (noise level, black borders, no accidental black pixels) and the colour.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <utility>
+
 #include "bdis_stereo/evaluation.hpp"
 #include "synth_test_util.hpp"
 
@@ -105,6 +108,66 @@ TEST(Appearance, DarkTubeVariantHidesTheNearWallInTheDark) {
   EXPECT_GT(near, 20000);
   EXPECT_GT(dark_share, 0.5);
   EXPECT_GT(near_dark_share, 0.6);
+}
+
+/// Mean |horizontal difference| of the grey image between columns 8k-1 and 8k
+/// (across the JPEG block grid) over the other columns', where both pixels
+/// are dark (grey < 40).
+double blockGridContrast(const cv::Mat& bgr) {
+  const cv::Mat g = grey(bgr);
+  double across = 0, within = 0;
+  long n_across = 0, n_within = 0;
+  for (int y = 0; y < g.rows; ++y) {
+    const uchar* row = g.ptr<uchar>(y);
+    for (int x = 1; x < g.cols; ++x) {
+      if (row[x] >= 40 || row[x - 1] >= 40) continue;
+      const double d = std::abs(static_cast<int>(row[x]) - static_cast<int>(row[x - 1]));
+      if (x % 8 == 0) {
+        across += d;
+        ++n_across;
+      } else {
+        within += d;
+        ++n_within;
+      }
+    }
+  }
+  return (across / std::max(1L, n_across)) / std::max(1e-9, within / std::max(1L, n_within));
+}
+
+TEST(Appearance, CompressedVariantCarriesTheCodecBlockGridAndOnlyThat) {
+  // The JPEG round trip leaves the 8 x 8 block grid at the same image
+  // position in both views: in the dark, where the codec flattens each block,
+  // the grey level steps across the grid's columns. Measured (frame 0, left /
+  // right): 3.8 / 3.6 times the mean step between other columns, against 1.0
+  // / 1.0 without the codec. The geometry, the ground truth and the black
+  // pixels (outside the view only) do not change.
+  const SyntheticFrame& jpeg = cachedFrame(variant("compressed_dark"), 0);
+  const SyntheticFrame& raw = cachedFrame(variant("dark_periphery"), 0);
+  const double jl = blockGridContrast(jpeg.left), jr = blockGridContrast(jpeg.right);
+  const double rl = blockGridContrast(raw.left), rr = blockGridContrast(raw.right);
+  std::printf("dark grey steps across the 8 px grid / within: JPEG %.2f / %.2f, uncompressed %.2f / %.2f\n", jl, jr,
+              rl, rr);
+  EXPECT_GT(jl, 2.5);
+  EXPECT_GT(jr, 2.5);
+  EXPECT_LT(rl, 1.2);
+  EXPECT_LT(rr, 1.2);
+  EXPECT_EQ(cv::norm(jpeg.gt, raw.gt, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(jpeg.left, raw.left, cv::NORM_L1), 0.0);
+
+  SceneConfig bordered = variant("sample");
+  bordered.width = 320;
+  bordered.height = 240;
+  SceneConfig bordered_jpeg = bordered;
+  bordered_jpeg.jpeg_quality = 50;
+  const SyntheticFrame& a = cachedFrame(bordered, 0);
+  const SyntheticFrame& b = cachedFrame(bordered_jpeg, 0);
+  for (const auto& [plain, coded] : {std::pair{&a.left, &b.left}, std::pair{&a.right, &b.right}}) {
+    cv::Mat black_plain, black_coded;
+    cv::inRange(*plain, cv::Scalar(0, 0, 0), cv::Scalar(0, 0, 0), black_plain);
+    cv::inRange(*coded, cv::Scalar(0, 0, 0), cv::Scalar(0, 0, 0), black_coded);
+    EXPECT_GT(cv::countNonZero(black_plain), 0.02 * plain->total());
+    EXPECT_EQ(cv::norm(black_plain, black_coded, cv::NORM_INF), 0.0) << "black exactly where the view ends";
+  }
 }
 
 TEST(Appearance, TexturelessPatchHasNoTexture) {

@@ -40,7 +40,8 @@ std::vector<std::string> withSmall(std::vector<std::string> args) {
 
 TEST_F(BdisSynthTool, WritesTheSequenceAndItsCalibration) {
   const RunResult r = run(withSmall({"--out", path("seq"), "--scene", "tube", "--lighting", "diffuse", "--focal",
-                                     "130", "--baseline", "0.004", "--noise", "1.5", "--seed", "7"}));
+                                     "130", "--baseline", "0.004", "--noise", "1.5", "--seed", "7",
+                                     "--jpeg-quality", "80"}));
   ASSERT_EQ(r.code(), 0) << r.all();
   EXPECT_TRUE(contains(r.out, "wrote 2 frames 160x120")) << r.out;
   const bdis::StereoSequence seq = bdis::StereoSequence::open(path("seq"));
@@ -50,7 +51,8 @@ TEST_F(BdisSynthTool, WritesTheSequenceAndItsCalibration) {
   const std::string yaml = readFile(path("seq/camera.yaml"));
   for (const char* line : {"image_width: 160\n", "image_height: 120\n", "fx: 130.0\n", "fy: 130.0\n", "cx: 80.0\n",
                            "cy: 60.0\n", "baseline: 0.004\n", "# synth_scene: tube\n", "# synth_lighting: diffuse\n",
-                           "# synth_seed: 7\n", "# synth_noise: 1.5\n", "# synth_frames: 2\n"}) {
+                           "# synth_seed: 7\n", "# synth_noise: 1.5\n", "# synth_frames: 2\n",
+                           "# synth_jpeg_quality: 80\n"}) {
     EXPECT_TRUE(contains(yaml, line)) << line << " missing in\n" << yaml;
   }
   // The same as rendering in-process with the same settings.
@@ -63,6 +65,7 @@ TEST_F(BdisSynthTool, WritesTheSequenceAndItsCalibration) {
   cfg.baseline = 0.004;
   cfg.noise = 1.5;
   cfg.seed = 7;
+  cfg.jpeg_quality = 80;
   EXPECT_TRUE(bdis_test::identical(seq.right(1), bdis::synth::SyntheticRenderer(cfg).render(1).right));
 }
 
@@ -116,6 +119,7 @@ TEST_F(BdisSynthTool, CommandLineErrorsExitNonZeroWithAMessage) {
       {{"--out", out, "--baseline", "-0.1"}, "baseline"},
       {{"--out", out, "--noise", "x1"}, "--noise needs a number, got 'x1'"},
       {{"--out", out, "--seed", "-3"}, "--seed must be >= 0"},
+      {{"--out", out, "--jpeg-quality", "101"}, "jpeg_quality = 101 is out of range"},
       {{"--out", out, "--scene", "cave"}, "unknown scene 'cave'"},
       {{"--out", out, "--lighting", "neon"}, "unknown lighting 'neon'"},
       {{"--out", out, "--variant", "nope"}, "unknown scene variant 'nope'"},

@@ -202,6 +202,8 @@ TEST(SceneConfigTest, ValidatesEveryField) {
   EXPECT_TRUE(contains(with([](SceneConfig& c) { c.light_spot = -1; }), "light_spot"));
   EXPECT_TRUE(contains(with([](SceneConfig& c) { c.motion = -1; }), "motion"));
   EXPECT_TRUE(contains(with([](SceneConfig& c) { c.supersampling = 0; }), "supersampling"));
+  EXPECT_TRUE(contains(with([](SceneConfig& c) { c.jpeg_quality = -1; }), "jpeg_quality"));
+  EXPECT_TRUE(contains(with([](SceneConfig& c) { c.jpeg_quality = 101; }), "jpeg_quality"));
   EXPECT_TRUE(contains(with([](SceneConfig& c) {
                          c.scene = bdis::synth::SceneType::Tube;
                          c.textureless_patch = true;
@@ -224,6 +226,7 @@ TEST(SceneConfigTest, SampleDefaultsAreTheDocumentedOnes) {
   EXPECT_EQ(c.height, 480);
   EXPECT_EQ(c.frames, 30);
   EXPECT_TRUE(c.instrument);
+  EXPECT_EQ(c.jpeg_quality, 0);
   EXPECT_DOUBLE_EQ(c.focalPx(), 520.0);
   EXPECT_DOUBLE_EQ(c.baseline, 0.005);
   const bdis::StereoCamera cam = c.camera();

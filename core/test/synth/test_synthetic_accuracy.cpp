@@ -94,8 +94,13 @@ TEST_P(SyntheticAccuracy, DefaultParamsMeetTheMeasuredBar) {
 //   instrument      bdis 0.927 / 0.114 /  3.4% / 10.5%   (0.919 /  3.1% / 10.9%)   dis_fast 1.000 / 0.247 / 11.5% / 11.5%
 //   tube            bdis 0.900 / 0.429 /  9.8% / 18.8%   (0.869 /  9.7% / 21.5%)   dis_fast 0.989 / 0.924 / 29.1% / 29.9%
 //   dark_tube       bdis 0.714 / 0.762 / 21.7% / 44.1%   (0.694 / 22.2% / 46.0%)   dis_fast 1.000 / 1.944 / 49.3% / 49.3%
+//   compressed_dark bdis 0.765 / 0.475 / 13.9% / 34.1%                           dis_fast 1.000 / 0.469 / 10.8% / 10.8%
 // dark_tube is the colon-like failure class, the near wall at a grazing angle
-// in the dark: its bar holds what it scores, no better than that.
+// in the dark: its bar holds what it scores, no better than that. So is
+// compressed_dark, the dark periphery as JPEG at quality 75: the codec
+// removes most of the dark texture the finest searched level relies on, and
+// there BDIS publishes more outliers than DIS fast, which searches a level
+// coarser (a known gap, docs/method.md "Compressed frames").
 // The dark periphery is the variant where a guess is most tempting: there
 // BDIS must publish fewer outliers than DIS fast, which publishes everything.
 INSTANTIATE_TEST_SUITE_P(
@@ -106,7 +111,8 @@ INSTANTIATE_TEST_SUITE_P(
                       Bar{"textureless", 0.93, 0.17, 0.015, 0.070},          //
                       Bar{"instrument", 0.90, 0.14, 0.040, 0.125},           //
                       Bar{"tube", 0.88, 0.50, 0.11, 0.21},                   //
-                      Bar{"dark_tube", 0.69, 0.85, 0.24, 0.46, true}),       //
+                      Bar{"dark_tube", 0.69, 0.85, 0.24, 0.46, true},        //
+                      Bar{"compressed_dark", 0.74, 0.55, 0.16, 0.37}),       //
     [](const ::testing::TestParamInfo<Bar>& info) { return std::string(info.param.variant); });
 
 /// Per-region tallies of the matcher's output against ground truth.
@@ -259,6 +265,7 @@ TEST(SyntheticBehaviour, ConfidenceRanksTheErrors) {
   //   tube           1.8 %: 42.7 20.6 13.5 7.5 4.6 3.3 2.3 1.9 1.1 0.2; 0.0252, 5.07
   //   dark_periphery 0.0 %: 29.7 10.9  5.2 1.3 0.2 0.1 0.0 0.0 0.0 0.0; 0.0052, 4.37
   //   dark_tube      7.4 %: 58.5 38.6 31.9 27.3 24.0 16.6 11.5 5.3 2.9 0.8; 0.0841, 3.26
+  //   compressed_dark 0.3 %: 53.3 38.2 26.3 14.1 5.6 1.6 0.0 0.0 0.0 0.0; 0.0268, 2.58
   // With the posterior window's samples 1 px apart and the floor at 0.0075:
   // instrument 0.0012, 1.60; tube 2.0 %, 0.0275, 5.62; dark periphery
   // 0.0084, 5.12; dark_tube 9.0 %, 0.0937, 3.48.
@@ -279,7 +286,8 @@ TEST(SyntheticBehaviour, ConfidenceRanksTheErrors) {
       {"instrument", {0.01, 2.0, 0.002}},
       {"tube", {0.025, 5.5, 0.028}},
       {"dark_periphery", {0.01, 5.0, 0.007}},
-      {"dark_tube", {0.085, 3.6, 0.09}}};
+      {"dark_tube", {0.085, 3.6, 0.09}},
+      {"compressed_dark", {0.01, 3.0, 0.03}}};
   for (const auto& [name, bar] : bars) {
     const bdis::Sparsification s = bdis::sparsify(samplesOf(bdisRun(name)));
     std::printf("  %-15s bad2 of the most confident half %.1f %%, deciles:", name.c_str(), 100 * s.bad2_top50);
