@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <stdexcept>
 #include <vector>
@@ -100,6 +101,70 @@ DisparitySignCheck checkDisparitySign(const cv::Mat& left, const cv::Mat& right)
       if (best < 0) ++check.negative;
     }
   }
+  return check;
+}
+
+namespace {
+
+constexpr int kCodecBlock = 8;        // px: JPEG's and MPEG's transform blocks
+constexpr int kMaxFlatStep = 16;      // grey levels: steps above are texture or edges, not block seams
+constexpr long kMinStepsPerPhase = 256;
+
+/// Per phase k (step between pixel k-1 and k, modulo the block), sum and count of the steps.
+struct PhaseSteps {
+  double sum[kCodecBlock] = {};
+  long count[kCodecBlock] = {};
+  void add(int phase, int a, int b) {
+    const int step = std::abs(a - b);
+    if (a == 0 || b == 0 || step > kMaxFlatStep) return;  // black: outside the view
+    sum[phase] += step;
+    count[phase] += 1;
+  }
+  /// Strongest phase's mean step over the median of the others'; 1 without enough steps.
+  double contrast() const {
+    double mean[kCodecBlock];
+    for (int k = 0; k < kCodecBlock; ++k) {
+      if (count[k] < kMinStepsPerPhase) return 1.0;
+      mean[k] = sum[k] / static_cast<double>(count[k]);
+    }
+    std::sort(mean, mean + kCodecBlock);
+    const double others_median = mean[(kCodecBlock - 1) / 2];  // the median of the other seven
+    return others_median > 0 ? mean[kCodecBlock - 1] / others_median : 1.0;
+  }
+};
+
+/// Luma of row y as the matcher takes it (Rec. 601 in 8.8 fixed point), 0 only for black pixels.
+void lumaRow(const cv::Mat& image, int y, std::vector<int>& out) {
+  const uint8_t* row = image.ptr<uint8_t>(y);
+  if (image.channels() == 1) {
+    for (int x = 0; x < image.cols; ++x) out[static_cast<size_t>(x)] = row[x];
+    return;
+  }
+  for (int x = 0; x < image.cols; ++x) {
+    const uint8_t* p = row + 3 * x;
+    const int luma = (29 * p[0] + 150 * p[1] + 77 * p[2] + 128) >> 8;
+    out[static_cast<size_t>(x)] = (p[0] | p[1] | p[2]) ? std::max(1, luma) : 0;
+  }
+}
+
+}  // namespace
+
+BlockArtefactCheck checkBlockArtefacts(const cv::Mat& image) {
+  if (image.empty() || image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
+    throw std::invalid_argument("checkBlockArtefacts: an 8-bit mono or BGR image expected");
+  }
+  PhaseSteps along_x, along_y;
+  std::vector<int> above(static_cast<size_t>(image.cols)), row(static_cast<size_t>(image.cols));
+  for (int y = 0; y < image.rows; ++y) {
+    lumaRow(image, y, row);
+    for (size_t x = 1; x < row.size(); ++x) along_x.add(static_cast<int>(x % kCodecBlock), row[x - 1], row[x]);
+    if (y > 0) {
+      for (size_t x = 0; x < row.size(); ++x) along_y.add(y % kCodecBlock, above[x], row[x]);
+    }
+    std::swap(above, row);
+  }
+  BlockArtefactCheck check;
+  check.grid_contrast = 0.5 * (along_x.contrast() + along_y.contrast());
   return check;
 }
 

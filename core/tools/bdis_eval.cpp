@@ -20,6 +20,7 @@
 #include "bdis_stereo/error_analysis.hpp"
 #include "bdis_stereo/evaluation.hpp"
 #include "bdis_stereo/matcher.hpp"
+#include "bdis_stereo/pair_check.hpp"
 #include "tool_common.hpp"
 
 namespace {
@@ -42,7 +43,9 @@ Besides the summary table it prints, per sequence and method:
     left by confidence thresholds;
   - with compute_variance: the share of errors within 1 and 2 sigma;
   - for sequences without gt_disparity/: density over the valid pixels and
-    the outliers in the strips along the rectification border.
+    the outliers in the strips along the rectification border;
+  - per sequence, the contrast of a block codec's 8 x 8 grid in its views
+    (checkBlockArtefacts: about 1 uncompressed, >= 1.2 block-coded).
 
 options:
   --preset NAME        fast | balanced (default) | accurate
@@ -164,6 +167,8 @@ struct Row {
   RegionScore regions;
   EstimateSamples samples;  ///< per estimate: confidence, error, sigma
   bool has_confidence = false, has_variance = false;
+  double grid_contrast_sum = 0;  ///< the views' block codec grid (checkBlockArtefacts), summed over frames
+  double gridContrast() const { return frames ? grid_contrast_sum / (2.0 * static_cast<double>(frames)) : 1.0; }
   // Without ground truth:
   double valid_pixels_density_sum = 0;
   BorderStripScore border;
@@ -283,12 +288,15 @@ std::vector<Row> scoreSequence(const std::string& root, std::vector<Method>& met
     checkImagePixels(files[1], right, o.max_image_pixels);
     const cv::Mat gt = seq.has_ground_truth ? seq.groundTruth(f) : cv::Mat();
     const cv::Mat labels = seq.has_ground_truth ? classifyPixels(gt, left) : cv::Mat();
+    const double grid_contrast =
+        checkBlockArtefacts(left).grid_contrast + checkBlockArtefacts(right).grid_contrast;
     for (size_t m = 0; m < methods.size(); ++m) {
       if (scored == 1) methods[m].run(left, right, disparity);  // untimed warm-up
       const double t0 = nowMs();
       methods[m].run(left, right, disparity);
       times[m].push_back(nowMs() - t0);
       Row& row = rows[m];
+      row.grid_contrast_sum += grid_contrast;
       const cv::Mat confidence = methods[m].confidence(), variance = methods[m].variance();
       row.has_confidence = !confidence.empty();
       row.has_variance = !variance.empty();
@@ -414,6 +422,20 @@ void printWithoutGroundTruth(const std::vector<Row>& rows) {
   }
 }
 
+/// Once per sequence: whether its views went through a block codec.
+void printInputs(const std::vector<Row>& rows) {
+  std::printf("\ninputs: the views' 8 x 8 block grid, steps across it over the others' (about 1: none;\n"
+              ">= 1.2: a block codec such as JPEG has removed texture the matcher needs)\n");
+  std::printf("%-28s %12s\n", "sequence", "grid");
+  std::string last;
+  for (const Row& r : rows) {
+    if (r.sequence == last) continue;
+    last = r.sequence;
+    std::printf("%-28s %12.2f%s\n", r.sequence.c_str(), r.gridContrast(),
+                BlockArtefactCheck{r.gridContrast()}.looksBlockCompressed() ? "  block-coded" : "");
+  }
+}
+
 void writeJson(const std::string& path, const MatcherParams& params, const std::vector<Row>& rows) {
   std::ofstream js(path);
   if (!js) throw std::runtime_error("cannot write " + path);
@@ -427,7 +449,8 @@ void writeJson(const std::string& path, const MatcherParams& params, const std::
   for (size_t i = 0; i < rows.size(); ++i) {
     const Row& r = rows[i];
     js << "    {\"sequence\": \"" << r.sequence << "\", \"method\": \"" << r.method << "\", \"frames\": " << r.frames
-       << ", \"median_ms\": " << r.median_ms << ", \"ground_truth\": " << (r.has_ground_truth ? "true" : "false");
+       << ", \"median_ms\": " << r.median_ms << ", \"ground_truth\": " << (r.has_ground_truth ? "true" : "false")
+       << ", \"block_grid_contrast\": " << r.gridContrast();
     if (r.has_ground_truth) {
       js << ", \"density\": " << r.score.density() << ", \"median_error\": " << r.score.medianError()
          << ", \"mean_error\": " << r.score.meanError() << ", \"bad2\": " << r.score.bad2Rate()
@@ -501,6 +524,7 @@ int run(int argc, char** argv) {
   printConfidence(rows);
   printVariance(rows);
   printWithoutGroundTruth(rows);
+  printInputs(rows);
   if (!o.json_path.empty()) writeJson(o.json_path, params, rows);
   return 0;
 }

@@ -6,8 +6,11 @@
 #include <filesystem>
 #include <regex>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "bdis_stereo/evaluation.hpp"
 #include "image_headers.hpp"
@@ -155,6 +158,38 @@ TEST_F(BdisEvalTest, SequenceWithoutGroundTruthReportsBorderStrips) {
   const std::string json = readFile(path("r.json"));
   EXPECT_NE(json.find("\"ground_truth\": false"), std::string::npos) << json;
   EXPECT_NE(json.find("\"border_outliers\""), std::string::npos) << json;
+}
+
+TEST_F(BdisEvalTest, InputsShowWhetherABlockCodecWasThere) {
+  // The same weak texture stored as it is and after a JPEG round trip at
+  // quality 75: only the second is reported block-coded.
+  cv::Mat noise(120, 160, CV_32FC1), texture;
+  cv::RNG rng(5);
+  rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
+  cv::GaussianBlur(noise, noise, cv::Size(0, 0), 3.0);
+  cv::normalize(noise, noise, 60, 100, cv::NORM_MINMAX);
+  noise.convertTo(texture, CV_8UC1);
+  std::vector<uchar> bytes;
+  cv::imencode(".jpg", texture, bytes, {cv::IMWRITE_JPEG_QUALITY, 75});
+  const cv::Mat coded = cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);
+  const cv::Mat gt(texture.size(), CV_32FC1, cv::Scalar(kTrueDisparity));
+  for (const auto& [name, image] : {std::pair<std::string, cv::Mat>{"raw", texture}, {"coded", coded}}) {
+    for (const char* sub : {"/left", "/right", "/gt_disparity"}) fs::create_directories(path(name + sub));
+    ASSERT_TRUE(cv::imwrite(path(name + "/left/000000.png"), image));
+    ASSERT_TRUE(cv::imwrite(path(name + "/right/000000.png"), image));
+    bdis::writeDisparityPng(path(name + "/gt_disparity/000000.png"), gt);
+    const RunResult r = run({path(name), "--methods", "dis_fast", "--json", path(name + ".json")});
+    ASSERT_EQ(r.code(), 0) << r.err;
+    const double contrast = jsonNumber(readFile(path(name + ".json")), "dis_fast", "block_grid_contrast");
+    const bool flagged = std::regex_search(r.out, std::regex(name + " +[0-9.]+  block-coded"));
+    if (name == "raw") {
+      EXPECT_LT(contrast, 1.1);
+      EXPECT_FALSE(flagged) << r.out;
+    } else {
+      EXPECT_GT(contrast, 1.3);
+      EXPECT_TRUE(flagged) << r.out;
+    }
+  }
 }
 
 TEST_F(BdisEvalTest, OversizedImagesAreRefusedFromTheirHeaders) {
