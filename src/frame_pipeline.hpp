@@ -54,6 +54,7 @@ class FramePipeline {
   std::string validate(const InputImages& images, const StereoFrame& frame, bdis::StereoCamera& camera) const;
   MatcherInput matcherInput(const InputImages& images);
   bool camerasLookSwapped(const MatcherInput& input, ros::WallTime now);
+  void checkInputCoding(const cv::Mat& left, ros::WallTime now);
   void publish(const std_msgs::Header& header, const sensor_msgs::CameraInfo& left_info,
                const bdis::StereoCamera& camera, const MatcherInput& input, const WantedOutputs& wanted);
   void publishPoints(const std_msgs::Header& header, cv::Mat depth, const bdis::StereoCamera& camera,
@@ -61,7 +62,8 @@ class FramePipeline {
   bool cloudTransform(const std_msgs::Header& header, RigidTransform& transform) const;
   void reject(const std::string& what);
 
-  static constexpr double kSignCheckPeriod = 1.0;  ///< s between checks for swapped cameras
+  static constexpr double kSignCheckPeriod = 1.0;    ///< s between checks for swapped cameras
+  static constexpr double kCodingCheckPeriod = 1.0;  ///< s between checks for a block codec's grid
 
   const std::string log_name_;
   const NodeParams params_;
@@ -81,6 +83,8 @@ class FramePipeline {
   ros::Time last_stamp_;
   ros::WallTime last_sign_check_;
   bool looks_swapped_ = false;
+  ros::WallTime last_coding_check_;
+  bool block_coded_ = false;
 };
 
 }  // namespace bdis_stereo

@@ -78,6 +78,11 @@ FrameCounters NodeStatistics::totals() const {
   return total_;
 }
 
+void NodeStatistics::inputBlockGrid(const bdis::BlockArtefactCheck& check) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  input_block_grid_ = check;
+}
+
 void NodeStatistics::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat, const InputStatus& input,
                               const std::string& preset, double sync_warn_timeout) {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -107,6 +112,9 @@ void NodeStatistics::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat,
     stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "dropping frames: processing slower than input");
   } else if (!input.subscribed) {
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "idle: no output subscribers");
+  } else if (input_block_grid_.looksBlockCompressed()) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                 "input block-coded (JPEG-like): more wrong depths in dark and flat tissue (see the log)");
   } else {
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "ok");
   }
@@ -128,6 +136,7 @@ void NodeStatistics::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat,
   stat.add("right_images", input.total.right_images);
   stat.add("left_camera_infos", input.total.left_infos);
   stat.add("right_camera_infos", input.total.right_infos);
+  stat.addf("input_block_grid", "%.2f", input_block_grid_.grid_contrast);
   stat.add("last_error", last_error_);
   stat.add("preset", preset);
   window_start_ = total_;

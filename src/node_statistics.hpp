@@ -12,6 +12,7 @@
 #include <diagnostic_updater/DiagnosticStatusWrapper.h>
 #include <ros/time.h>
 
+#include "bdis_stereo/pair_check.hpp"
 #include "input_status.hpp"
 
 namespace bdis_stereo {
@@ -50,6 +51,8 @@ class NodeStatistics {
   /// Counts a published frame: its processing time and its latency (pair
   /// formed to outputs published).
   void frameOut(double processing_ms, double latency_ms);
+  /// The left image's block codec grid as last checked (bdis::checkBlockArtefacts).
+  void inputBlockGrid(const bdis::BlockArtefactCheck& check);
 
   FrameCounters totals() const;
 
@@ -68,6 +71,7 @@ class NodeStatistics {
   std::vector<double> latencies_ms_;  ///< ring of the last kLatencyWindow frames
   std::size_t latency_next_ = 0;
   std::string last_error_;
+  bdis::BlockArtefactCheck input_block_grid_;
   std::map<std::string, ros::WallTime> reject_logged_;
 };
 

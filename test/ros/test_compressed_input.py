@@ -7,7 +7,8 @@ to <image topic>/compressed and decodes JPEG and PNG itself; where it is
 the raw path's disparity, JPEG frames nearly; a truncated or corrupt JPEG, a
 16-bit PNG or data that is no image is a dropped frame with a clear message,
 logged once however often it comes (throttled), the next good frame goes out
-and the manager lives."""
+and the manager lives. JPEG at a low quality is said once (its 8 x 8 grid), and
+shown in the diagnostics while it lasts."""
 import os
 import subprocess
 import sys
@@ -18,7 +19,7 @@ import numpy as np
 import rosgraph
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from sensor_msgs.msg import CameraInfo, CompressedImage
 from stereo_msgs.msg import DisparityImage
 
@@ -30,6 +31,8 @@ NODELET = "/stereo/bdis"
 STAMPS = u.StampSequence(300.0)
 BUILTIN = "decoding JPEG and PNG with OpenCV (built-in decoding)"
 PLUGIN = "decoding through the compressed_image_transport plugin"
+GRID = "carries a block codec's 8 x 8 grid"
+NO_GRID = "no longer carries a block codec's grid"
 # Not a multiple of JPEG's 8 px blocks: the right image's blocks hold other
 # content than the left's, so JPEG's losses differ between them.
 DISPARITY = 7
@@ -64,6 +67,14 @@ def png16(array, stamp, frame_id):
     msg = compressed(array, stamp, frame_id)
     msg.format = "mono16; png compressed "
     return with_data(msg, data.tobytes())
+
+
+def weak_pair(d=DISPARITY):
+    """Weakly textured tissue (grey 60..100): where a codec's blocks show."""
+    rng = np.random.default_rng(9)
+    tex = cv2.GaussianBlur(rng.random((u.H, u.W + d)).astype(np.float32), (0, 0), 3.0)
+    tex = cv2.normalize(tex, None, 60, 100, cv2.NORM_MINMAX).astype(np.uint8)
+    return tuple(cv2.cvtColor(a, cv2.COLOR_GRAY2BGR) for a in (tex[:, :u.W].copy(), tex[:, d:d + u.W].copy()))
 
 
 class TestCompressedInput(unittest.TestCase):
@@ -144,6 +155,43 @@ class TestCompressedInput(unittest.TestCase):
             self.assertGreater(valid.mean(), 0.9, name)
             self.assertLess(np.median(err), median_px, name)
             self.assertGreater((err < 0.5).mean(), within, name)
+
+    def diagnostics(self):
+        got = []
+        sub = rospy.Subscriber("/diagnostics", DiagnosticArray, lambda m: got.extend(
+            (s.level, s.message, {kv.key: kv.value for kv in s.values}) for s in m.status if NODELET in s.name))
+        try:
+            return u.wait_for(lambda: got and got[-1], 10.0, "diagnostics of " + NODELET)
+        finally:
+            sub.unregister()
+
+    def frames_for(self, seconds, compression, left, right):
+        """Frames of `compression` for longer than the grid check's period."""
+        end = rospy.get_time() + seconds
+        while rospy.get_time() < end:
+            self.processed(lambda a, s, f: compressed(a, s, f, compression),
+                           lambda a, s, f: compressed(a, s, f, compression), left, right)
+
+    def test_4_block_coded_input_is_said_once_and_diagnosed(self):
+        left, right = weak_pair()
+        self.frames_for(2.5, "png", left, right)  # whatever came before is over
+        said, cleared = len(self.rosout.find(GRID)), len(self.rosout.find(NO_GRID))
+        self.frames_for(2.5, "jpeg:75", left, right)
+        u.wait_for(lambda: len(self.rosout.find(GRID)) > said, 10.0, "a new log line containing %r" % GRID)
+        self.frames_for(1.5, "jpeg:75", left, right)
+        self.assertEqual(len(self.rosout.find(GRID)), said + 1, "said once while it lasts")
+        level, message, values = self.diagnostics()
+        print("JPEG 75: input_block_grid %s, %r" % (values["input_block_grid"], message))
+        self.assertGreaterEqual(float(values["input_block_grid"]), 1.2)
+        self.assertEqual(level, DiagnosticStatus.WARN)
+        self.assertIn("block-coded", message)
+        self.frames_for(2.5, "png", left, right)
+        u.wait_for(lambda: len(self.rosout.find(NO_GRID)) > cleared, 10.0, "a new log line containing %r" % NO_GRID)
+        level, message, values = u.wait_for(
+            lambda: (lambda d: d if float(d[2]["input_block_grid"]) < 1.2 else None)(self.diagnostics()), 10.0,
+            "the diagnostics without the grid")
+        print("PNG: input_block_grid %s, %r" % (values["input_block_grid"], message))
+        self.assertNotIn("block-coded", message)
 
     def test_3_bad_frames_are_dropped_with_the_reason(self):
         builtin = self.builtin()

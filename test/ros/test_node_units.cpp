@@ -95,6 +95,27 @@ TEST(NodeStatistics, CountsAndDiagnoses) {
   EXPECT_EQ(next.message, "ok");
   EXPECT_EQ(valueOf(next, "processing_ms_mean"), "0.00");
   EXPECT_EQ(valueOf(next, "frames_in"), "4");  // cumulative
+  EXPECT_EQ(valueOf(next, "input_block_grid"), "1.00");  // not checked yet: no grid
+}
+
+TEST(NodeStatistics, BlockCodedInputWarnsWhileNothingWorseIsWrong) {
+  bdis_stereo::NodeStatistics stats;
+  stats.frameIn();
+  stats.frameOut(10.0, 20.0);
+  stats.inputBlockGrid(bdis::BlockArtefactCheck{2.37});
+  diagnostic_updater::DiagnosticStatusWrapper coded;
+  stats.diagnose(coded, quietInputs(0, 0, 0, 0), "balanced", 3.0);
+  EXPECT_EQ(coded.level, diagnostic_msgs::DiagnosticStatus::WARN);
+  EXPECT_TRUE(contains(coded.message, "input block-coded (JPEG-like)")) << coded.message;
+  EXPECT_EQ(valueOf(coded, "input_block_grid"), "2.37");
+  stats.rejected("left image is empty");  // bad input outranks it
+  diagnostic_updater::DiagnosticStatusWrapper bad;
+  stats.diagnose(bad, quietInputs(0, 0, 0, 0), "balanced", 3.0);
+  EXPECT_EQ(bad.level, diagnostic_msgs::DiagnosticStatus::ERROR);
+  stats.inputBlockGrid(bdis::BlockArtefactCheck{1.02});
+  diagnostic_updater::DiagnosticStatusWrapper clean;
+  stats.diagnose(clean, quietInputs(0, 0, 0, 0), "balanced", 3.0);
+  EXPECT_EQ(clean.message, "ok");
 }
 
 TEST(NodeStatistics, RejectionsAreCountedAlwaysAndLoggedThrottledPerMessage) {
