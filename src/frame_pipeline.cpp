@@ -116,7 +116,7 @@ FramePipeline::MatcherInput FramePipeline::matcherInput(const InputImages& image
 // signs tells (about 2 ms at 640x480): on the first frame, then once a second
 // (a swap is a setup error, there from the start) and on every frame while it fails.
 bool FramePipeline::camerasLookSwapped(const MatcherInput& input, ros::WallTime now) {
-  if (!looks_swapped_ && (now - last_sign_check_).toSec() < kSignCheckPeriod) return false;
+  if (!looks_swapped_ && (now - last_sign_check_).toSec() < kInputCheckPeriod) return false;
   const bdis::DisparitySignCheck sign = bdis::checkDisparitySign(input.left, input.right);
   last_sign_check_ = now;
   looks_swapped_ = sign.looksSwapped();
@@ -135,7 +135,7 @@ bool FramePipeline::camerasLookSwapped(const MatcherInput& input, ros::WallTime 
 // said once when it appears (and when it goes), kept in the diagnostics. About
 // 1 ms at 640x480, once a second.
 void FramePipeline::checkInputCoding(const cv::Mat& left, ros::WallTime now) {
-  if ((now - last_coding_check_).toSec() < kCodingCheckPeriod) return;
+  if ((now - last_coding_check_).toSec() < kInputCheckPeriod) return;
   last_coding_check_ = now;
   const bdis::BlockArtefactCheck check = bdis::checkBlockArtefacts(left);
   statistics_.inputBlockGrid(check);

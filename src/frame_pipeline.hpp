@@ -62,8 +62,8 @@ class FramePipeline {
   bool cloudTransform(const std_msgs::Header& header, RigidTransform& transform) const;
   void reject(const std::string& what);
 
-  static constexpr double kSignCheckPeriod = 1.0;    ///< s between checks for swapped cameras
-  static constexpr double kCodingCheckPeriod = 1.0;  ///< s between checks for a block codec's grid
+  /// s between two checks of the input (swapped cameras, a block codec's grid)
+  static constexpr double kInputCheckPeriod = 1.0;
 
   const std::string log_name_;
   const NodeParams params_;

@@ -9,6 +9,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "matcher/pyramid.hpp"  // the matcher's grey levels and validity
+
 namespace bdis {
 namespace {
 
@@ -114,9 +116,10 @@ constexpr long kMinStepsPerPhase = 256;
 struct PhaseSteps {
   double sum[kCodecBlock] = {};
   long count[kCodecBlock] = {};
-  void add(int phase, int a, int b) {
+  /// The step between two pixels inside the view (valid), when flat enough.
+  void add(int phase, int a, int b, bool both_valid) {
     const int step = std::abs(a - b);
-    if (a == 0 || b == 0 || step > kMaxFlatStep) return;  // black: outside the view
+    if (!both_valid || step > kMaxFlatStep) return;
     sum[phase] += step;
     count[phase] += 1;
   }
@@ -133,19 +136,21 @@ struct PhaseSteps {
   }
 };
 
-/// Luma of row y as the matcher takes it (Rec. 601 in 8.8 fixed point), 0 only for black pixels.
-void lumaRow(const cv::Mat& image, int y, std::vector<int>& out) {
-  const uint8_t* row = image.ptr<uint8_t>(y);
-  if (image.channels() == 1) {
-    for (int x = 0; x < image.cols; ++x) out[static_cast<size_t>(x)] = row[x];
-    return;
+/// Grey levels and validity of the rows of a view, as the matcher takes them.
+struct GreyRow {
+  std::vector<uchar> grey, valid;
+  explicit GreyRow(int width) : grey(static_cast<size_t>(width)), valid(static_cast<size_t>(width)) {}
+  void load(const cv::Mat& image, int y) {
+    const uchar* row = image.ptr<uchar>(y);
+    constexpr int kNoSaturation = 256;  // a clipped highlight is texture-free, not a codec's
+    if (image.channels() == 1) {
+      std::copy(row, row + image.cols, grey.begin());
+      detail::validityOfMonoRow(row, image.cols, kNoSaturation, valid.data());
+    } else {
+      detail::lumaOfBgrRow(row, image.cols, kNoSaturation, grey.data(), valid.data());
+    }
   }
-  for (int x = 0; x < image.cols; ++x) {
-    const uint8_t* p = row + 3 * x;
-    const int luma = (29 * p[0] + 150 * p[1] + 77 * p[2] + 128) >> 8;
-    out[static_cast<size_t>(x)] = (p[0] | p[1] | p[2]) ? std::max(1, luma) : 0;
-  }
-}
+};
 
 }  // namespace
 
@@ -154,12 +159,16 @@ BlockArtefactCheck checkBlockArtefacts(const cv::Mat& image) {
     throw std::invalid_argument("checkBlockArtefacts: an 8-bit mono or BGR image expected");
   }
   PhaseSteps along_x, along_y;
-  std::vector<int> above(static_cast<size_t>(image.cols)), row(static_cast<size_t>(image.cols));
+  GreyRow above(image.cols), row(image.cols);
   for (int y = 0; y < image.rows; ++y) {
-    lumaRow(image, y, row);
-    for (size_t x = 1; x < row.size(); ++x) along_x.add(static_cast<int>(x % kCodecBlock), row[x - 1], row[x]);
+    row.load(image, y);
+    for (size_t x = 1; x < row.grey.size(); ++x) {
+      along_x.add(static_cast<int>(x % kCodecBlock), row.grey[x - 1], row.grey[x], row.valid[x - 1] && row.valid[x]);
+    }
     if (y > 0) {
-      for (size_t x = 0; x < row.size(); ++x) along_y.add(y % kCodecBlock, above[x], row[x]);
+      for (size_t x = 0; x < row.grey.size(); ++x) {
+        along_y.add(y % kCodecBlock, above.grey[x], row.grey[x], above.valid[x] && row.valid[x]);
+      }
     }
     std::swap(above, row);
   }

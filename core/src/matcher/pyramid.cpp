@@ -5,20 +5,19 @@
 
 namespace bdis {
 namespace detail {
-namespace {
 
-// Validity of an 8-bit row: a pixel is outside the rectified view when
-// every channel is 0; judged on the input, not on the grey value, so a very
-// dark but real pixel stays valid. A pixel whose grey level reaches
-// `saturated` is left out too: a specular highlight sits at another place on
-// the tissue in each view, and its clipped plateau holds no texture.
+// A pixel is outside the rectified view when every channel is 0; judged on
+// the input, not on the grey value, so a very dark but real pixel stays
+// valid. A pixel whose grey level reaches `saturated` is left out too: a
+// specular highlight sits at another place on the tissue in each view, and
+// its clipped plateau holds no texture.
 BDIS_ROW_LOOP
 void validityOfMonoRow(const uchar* __restrict src, int w, int saturated, uchar* __restrict valid) {
   for (int x = 0; x < w; ++x) valid[x] = (src[x] != 0) & (src[x] < saturated);
 }
 
-// Luma and validity of a BGR row, read interleaved. Luma is a whole number:
-// kept in 8 bits, a quarter of the memory traffic of floats.
+// Read interleaved. Luma is a whole number: kept in 8 bits, a quarter of the
+// memory traffic of floats.
 BDIS_ROW_LOOP
 void lumaOfBgrRow(const uchar* __restrict bgr, int w, int saturated, uchar* __restrict grey,
                   uchar* __restrict valid) {
@@ -30,6 +29,8 @@ void lumaOfBgrRow(const uchar* __restrict bgr, int w, int saturated, uchar* __re
     valid[x] = ((b | gr | r) != 0) & ((luma >> 8) < saturated);
   }
 }
+
+namespace {
 
 /// Rectification leaves more than black outside the view: interpolating the
 /// image against its black frame gives a seam of dark pixels (grey 1-20 in

@@ -13,6 +13,12 @@
 namespace bdis {
 namespace detail {
 
+/// Validity of an 8-bit mono row: 0 where the pixel is black (outside the
+/// rectified view) or its grey level reaches `saturated` (256: never).
+void validityOfMonoRow(const uchar* src, int w, int saturated, uchar* valid);
+/// Grey level (Rec. 601 luma, as the matcher takes it) and validity of a BGR row.
+void lumaOfBgrRow(const uchar* bgr, int w, int saturated, uchar* grey, uchar* valid);
+
 /// One pyramid level of one stereo pair.
 struct PyramidLevel {
   int width = 0;
