@@ -76,6 +76,8 @@ const std::vector<ParamField>& paramFields() {
             "start each patch from a neighbour's disparity when that fits better (DIS)"),
       field("search_band_rows", &MatcherParams::search_band_rows, 0, 10000,
             "finest level searched in bands of this many patch rows (in cache); 0 = the whole level (DIS)"),
+      field("coarser_look", &MatcherParams::coarser_look, 0, 1,
+            "finest level: a patch without evidence searches again one level coarser, on twice its footprint"),
       field("min_valid_share", &MatcherParams::min_valid_share, 0.0, 1.0,
             "gamma: minimum share of valid (non-black) pixels in a patch"),
       field("saturation_grey", &MatcherParams::saturation_grey, 1, 256,
@@ -217,6 +219,8 @@ MatcherParams MatcherParams::preset(const std::string& name) {
     // and two refinement steps they keep bad2 lowest (docs/method.md).
     p.iterations = 2;
     p.confidence_floor = 0.02f;
+    // More estimates on dark and flat tissue for a few per cent of its time.
+    p.coarser_look = true;
     return p;
   }
   throw std::invalid_argument("unknown preset '" + name + "': expected one of " + presetList());

@@ -38,6 +38,11 @@ struct MatcherParams {
   /// Finest level: forward and backward pass per band of this many patch
   /// rows, which stays in cache; 0 = over the whole level at once, as DIS.
   int search_band_rows = 8;
+  /// At the finest level, a patch whose posterior barely tells its
+  /// disparities apart searches again one level coarser, on twice its
+  /// footprint: more estimates on dark and flat tissue at the same bad2, for
+  /// 5-7 % of balanced's time (docs/method.md); on in accurate.
+  bool coarser_look = false;
   // Bayesian patch posterior.
   float min_valid_share = 0.25f;   ///< gamma: patches with fewer valid pixels are discarded
   /// Pixels this bright or brighter in either view (grey level; a specular

@@ -20,9 +20,15 @@ void PatchSearch::configure(const MatcherParams& params) {
   posterior_.variance = params.compute_variance;
   cost_.configure(kernelsFor(p_, bestKernelIsa()), p_, params.mean_normalization,
                   params.window_half_width, params.window_step);
+  coarser_posterior_ = posterior_;
+  coarser_posterior_.step = 0.5f * params.window_step;
+  coarser_cost_.configure(kernelsFor(p_, bestKernelIsa()), p_, params.mean_normalization,
+                          params.window_half_width, coarser_posterior_.step);
 }
 
-void PatchSearch::beginLevel(const PyramidLevel& L, int stride) {
+void PatchSearch::beginLevel(const PyramidLevel& L, int stride, const PyramidLevel* coarser, float max_change) {
+  coarser_ = coarser;
+  coarser_max_change_ = max_change;
   grid_.layout(L.width, L.height, p_, stride);
   // Only grown: the finer level has more patches than the coarser one before
   // it, and resizing down and up again would construct them anew every level.
@@ -35,13 +41,12 @@ void PatchSearch::beginLevel(const PyramidLevel& L, int stride) {
 
 void PatchSearch::searchBand(const PyramidLevel& L, const cv::Mat1f& coarse, int top, int bottom) {
   forwardPass(L, coarse, top, bottom);
-  backwardPass(L, top, bottom);
+  backwardPass(L, coarse, top, bottom);
 }
 
 void PatchSearch::forwardPass(const PyramidLevel& L, const cv::Mat1f& coarse, int top, int bottom) {
   const int pp = p_ * p_;
   const int nx = grid_.columns();
-  const float half = 0.5f * static_cast<float>(p_ - 1);
   // Raster order: start from the coarser level's disparity at the patch
   // centre, times 2, or from the left or upper neighbour's result when that
   // fits this patch better (spatial propagation, as in DIS).
@@ -51,12 +56,7 @@ void PatchSearch::forwardPass(const PyramidLevel& L, const cv::Mat1f& coarse, in
     for (int ix = 0; ix < nx; ++ix) {
       const size_t k = static_cast<size_t>(iy * nx + ix);
       const int x0 = grid_.xs[static_cast<size_t>(ix)];
-      const float cx = (static_cast<float>(x0) + half + 0.5f) * 0.5f - 0.5f;
-      const float cy = (static_cast<float>(y0) + half + 0.5f) * 0.5f - 0.5f;
-      // cx, cy > 0: adding 0.5 and truncating rounds them (lround is a libm call).
-      const int ccx = std::min(static_cast<int>(cx + 0.5f), coarse.cols - 1);
-      const int ccy = std::min(static_cast<int>(cy + 0.5f), coarse.rows - 1);
-      float u = 2.f * coarse(ccy, ccx);
+      float u = 2.f * coarse(coarseCell(x0, y0, p_, coarse));
       estimates_[k] = PatchEstimate{u, 0.f, 0.f};
       LoadedPatch& record = loaded_[k];
       const int left_invalid = cost_.leftInvalid(x0);
@@ -75,14 +75,20 @@ void PatchSearch::forwardPass(const PyramidLevel& L, const cv::Mat1f& coarse, in
   }
 }
 
-void PatchSearch::backwardPass(const PyramidLevel& L, int top, int bottom) {
+void PatchSearch::backwardPass(const PyramidLevel& L, const cv::Mat1f& coarse, int top, int bottom) {
   const int nx = grid_.columns();
+  const int half_p = p_ / 2;
   float window[2 * kMaxWindowHalfWidth + 1];
   // The right and lower neighbours get their say, then the patch's
   // posterior is taken at its final disparity.
   for (int iy = bottom - 1; iy >= top; --iy) {
     const int y0 = grid_.ys[static_cast<size_t>(iy)];
     cost_.loadBand(L, y0);
+    // The doubled footprint, rows y0 - p/2 .. y0 + 3p/2 - 1, is p rows of
+    // the coarser level from yc; rows it would not fit get no second look.
+    const int yc = (y0 - half_p + 1) / 2;
+    const bool look_coarser = coarser_ != nullptr && y0 >= half_p && yc + p_ <= coarser_->height;
+    if (look_coarser) coarser_cost_.loadBand(*coarser_, yc);
     for (int ix = nx - 1; ix >= 0; --ix) {
       const size_t k = static_cast<size_t>(iy * nx + ix);
       const LoadedPatch& record = loaded_[k];
@@ -97,8 +103,43 @@ void PatchSearch::backwardPass(const PyramidLevel& L, int top, int bottom) {
       const float valid_at_optimum = cost_.windowCosts(u, window);
       estimates_[k] = patchPosterior(u, window, valid_at_optimum,
                                      [this] { return cost_.templateVariance(); }, posterior_);
+      const int x0 = grid_.xs[static_cast<size_t>(ix)];
+      const int xc = (x0 - half_p + 1) / 2;
+      if (look_coarser && estimates_[k].evidence < kCoarserLookBelowEvidence && x0 >= half_p &&
+          xc + p_ <= coarser_->width && flatAtCoarserScale(x0, y0, coarse)) {
+        lookCoarser(k, xc, yc, u);
+      }
     }
   }
+}
+
+bool PatchSearch::flatAtCoarserScale(int x0, int y0, const cv::Mat1f& coarse) const {
+  // The slope of the coarser disparity (the same in its px as in this
+  // level's) by central differences around the patch centre's cell.
+  const cv::Point c = coarseCell(x0, y0, p_, coarse);
+  const int left = std::max(c.x - 1, 0), right = std::min(c.x + 1, coarse.cols - 1);
+  const int up = std::max(c.y - 1, 0), down = std::min(c.y + 1, coarse.rows - 1);
+  const float slope_x = right > left ? std::fabs(coarse(c.y, right) - coarse(c.y, left)) / static_cast<float>(right - left) : 0.f;
+  const float slope_y = down > up ? std::fabs(coarse(down, c.x) - coarse(up, c.x)) / static_cast<float>(down - up) : 0.f;
+  return std::max(slope_x, slope_y) * static_cast<float>(2 * p_) < coarser_max_change_;
+}
+
+void PatchSearch::lookCoarser(size_t k, int xc, int yc, float u) {
+  const int pp = p_ * p_;
+  const int left_invalid = coarser_cost_.leftInvalid(xc);
+  if (static_cast<float>(pp - left_invalid) < min_valid_share_ * static_cast<float>(pp)) return;
+  coarser_cost_.loadPatch(*coarser_, xc, yc, left_invalid == 0);
+  // Disparities halve one level up; so do the window's samples (see
+  // configure), so that both posteriors weigh the same disparity span.
+  const float uc = refinePatch(coarser_cost_, 0.5f * u);
+  float window[2 * kMaxWindowHalfWidth + 1];
+  const float valid_at_optimum = coarser_cost_.windowCosts(uc, window);
+  PatchEstimate coarser = patchPosterior(uc, window, valid_at_optimum,
+                                         [this] { return coarser_cost_.templateVariance(); }, coarser_posterior_);
+  if (!(coarser.evidence > estimates_[k].evidence)) return;
+  coarser.disparity *= 2.f;
+  coarser.variance *= 4.f;
+  estimates_[k] = coarser;
 }
 
 bool PatchSearch::propagate(float& u, const float* candidates, int n) {
@@ -137,13 +178,13 @@ bool PatchSearch::propagate(float& u, const float* candidates, int n) {
   return moved;
 }
 
-float PatchSearch::refinePatch(float u_start) {
+float PatchSearch::refinePatch(PatchCost& cost, float u_start) {
   // Inverse-compositional Gauss-Newton along x, d >= 0.
-  const float max_u = static_cast<float>(cost_.levelWidth());
+  const float max_u = static_cast<float>(cost.levelWidth());
   float u = u_start;
   ResidualSums r;
   for (int it = 0; it < iterations_; ++it) {
-    cost_.sums(u, r);
+    cost.sums(u, r);
     if (r.count <= 0.f) break;
     float b = r.g_diff, H = r.g_sq;
     if (mean_normalization_) {

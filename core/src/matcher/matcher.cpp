@@ -182,8 +182,12 @@ void Matcher::Impl::configureSearches() {
 
 void Matcher::Impl::searchFinestLevel(int finest, bool with_check) {
   const detail::PyramidLevel& level = pyramid.level(finest);
-  left.beginFinestLevel(level, finest);
-  if (with_check) check.beginFinestLevel(mirrored.level(finest), finest);
+  // The second look one level coarser is the published search's only: in
+  // the check's search it lets more of the left's guesses on dark tissue
+  // through, wrong ones among them, at twice the cost (docs/method.md).
+  const bool coarser_look = params.coarser_look && finest + 1 < pyramid.numLevels();
+  left.beginFinestLevel(level, finest, coarser_look ? &pyramid.level(finest + 1) : nullptr);
+  if (with_check) check.beginFinestLevel(mirrored.level(finest), finest, nullptr);
   detail::scheduleFinestBands(left.grid(), params.search_band_rows, with_check ? &check.grid() : nullptr,
                               params.search_band_rows, bands);
   for (const detail::SearchBand& band : bands) {

@@ -60,9 +60,10 @@ void SearchPass::matchCoarseLevel(const PyramidLevel& L, int s) {
   fusion_.fuseInitialisation(search_.grid(), search_.estimates(), coarse, initialisation_[static_cast<size_t>(s)]);
 }
 
-void SearchPass::beginFinestLevel(const PyramidLevel& L, int s) {
+void SearchPass::beginFinestLevel(const PyramidLevel& L, int s, const PyramidLevel* coarser) {
   finest_level_ = s;
-  search_.beginLevel(L, patchStride(params_.patch_size, params_.overlap));
+  search_.beginLevel(L, patchStride(params_.patch_size, params_.overlap), coarser,
+                     kCoarserLookMaxChangePx / static_cast<float>(1 << s));
 }
 
 void SearchPass::searchFinestBand(const PyramidLevel& L, int top, int bottom) {

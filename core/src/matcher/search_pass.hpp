@@ -35,7 +35,9 @@ class SearchPass {
 
   /// The finest level, s: beginFinestLevel, then searchFinestBand for
   /// every band of patch rows of grid() from the top, then fuseFinestLevel.
-  void beginFinestLevel(const PyramidLevel& L, int s);
+  /// `coarser`: level s + 1 of the same pyramid, for the second look of
+  /// patches without evidence (null: none, as when s is the coarsest level).
+  void beginFinestLevel(const PyramidLevel& L, int s, const PyramidLevel* coarser);
   const PatchGrid& grid() const { return search_.grid(); }
   void searchFinestBand(const PyramidLevel& L, int top, int bottom);
   void fuseFinestLevel();

@@ -88,6 +88,11 @@ const std::vector<NamedConfig>& configs() {
          p.sigma_s = 0.3f;
          p.compute_variance = true;
        }},
+      {"coarser_look_variance",
+       [](MatcherParams& p) {
+         p.coarser_look = true;
+         p.compute_variance = true;
+       }},
   };
   return list;
 }
@@ -271,9 +276,9 @@ void checkHashes(const std::vector<NamedPair>& pairs, const std::vector<Expected
 const std::vector<Expected> kGeneratedPairHashes = {
     {"balanced", 0xa7aeaf1be493f608ull, 0xb5ec38c66af90d1aull, 0x2b15b51cd1cd0da0ull},
     {"fast", 0xbab9919991a1aedbull, 0x227cb958fd353d46ull, 0x9a8019c0560b9189ull},
-    {"accurate", 0x0e98bc72dd797670ull, 0xc8e86b5877b6087cull, 0x73405fab25c947d0ull},
+    {"accurate", 0xa49010e77b6cb456ull, 0x21f869a568ceb097ull, 0x45e627703d3b7524ull},
     {"balanced_variance", 0xca1882c0e167dd3full, 0x8d5dcfdba80a3fd2ull, 0xd89cbd24ec5d1ca9ull},
-    {"accurate_variance", 0x07dc3ce20dd45180ull, 0x31e4e349551a28cdull, 0xecc7457b04da8af1ull},
+    {"accurate_variance", 0xb71d3a8bf88cfd82ull, 0x0f8b62f63a02c840ull, 0x825c6877eb739f2cull},
     {"finest_0", 0x08904316cf4f0bcbull, 0x1a3881fc0fe35236ull, 0x7cbd5ce9c8160603ull},
     {"finest_2", 0x6f3f59fef0e166cbull, 0x5f8f0663c1506392ull, 0x10713428af9b5afeull},
     {"levels_3_3", 0x53b8931de1b116c9ull, 0xffecb972b2e43971ull, 0xdd200b1702805670ull},
@@ -289,15 +294,16 @@ const std::vector<Expected> kGeneratedPairHashes = {
     {"twelve_iterations_variance", 0x046955d65fc7d290ull, 0xc14f7a9c5abed935ull, 0x56a129fd95d95334ull},
     {"strict_validity", 0x67b29f5956f034baull, 0x806f2887ddffb63eull, 0x8d1410cf1bc3fdf1ull},
     {"tiny_sigma_s_variance", 0xcea9d91d208071c7ull, 0x36a64f1bc02728f7ull, 0xf1e48920e81fbbc3ull},
+    {"coarser_look_variance", 0x4a9740ef952aa7b7ull, 0xf9025b1b5b18ff6eull, 0x9db39e21c3863acdull},
 };
 
 // The same on the first frame of each colon sequence of the shared data.
 const std::vector<Expected> kColonFrameHashes = {
     {"balanced", 0x2415d688d9a4b3e8ull, 0xe1d1b5dc1167aceaull, 0xfbad6d1951bc5ab0ull},
     {"fast", 0xa1cacbb171e86da8ull, 0x3eef59789ec37688ull, 0x6575e5528b81b5baull},
-    {"accurate", 0x0bda03e57727953full, 0x1a6b9054a28499d0ull, 0xcf34e43bad96740aull},
+    {"accurate", 0xdba8e577b97fee6dull, 0x65a8772c25576858ull, 0x75c6e3514c2823a3ull},
     {"balanced_variance", 0x46dd76381bd36e58ull, 0x6c908ec72c87468bull, 0xbf9b4eaa1abb3715ull},
-    {"accurate_variance", 0x76c58dc870725051ull, 0x4881c9721a503be4ull, 0xc8a7c29b42f65f6eull},
+    {"accurate_variance", 0x496995d83cc63eabull, 0xbc02019bb6f5cf31ull, 0xf3b29b5623c0e42full},
     {"finest_0", 0xed7950e01e54ff0bull, 0x53b5788e8c9eb884ull, 0x732913b9d5bb9daeull},
     {"finest_2", 0x3c550cfff64b47bfull, 0xbae7e648dbfe4144ull, 0xeab6300939ed325cull},
     {"levels_3_3", 0xcce926697e034e74ull, 0x1dda53ddfc4cc3d0ull, 0x0854c7526eee9766ull},
@@ -313,6 +319,7 @@ const std::vector<Expected> kColonFrameHashes = {
     {"twelve_iterations_variance", 0xe249738909fde04dull, 0x3dccde61ffb98374ull, 0x06a1907b17aa4f59ull},
     {"strict_validity", 0xcb5ce9bb40b79d33ull, 0xb5bd29abd79a7c67ull, 0x39ea2fed11144d5aull},
     {"tiny_sigma_s_variance", 0xe0fbe58d788cb3d7ull, 0xfaf23e3b5e1e2087ull, 0x909be1b8cd633181ull},
+    {"coarser_look_variance", 0x355a9aab2f951abcull, 0xc97339d505414ea0ull, 0x1304b122d26b4539ull},
 };
 
 }  // namespace
