@@ -86,9 +86,10 @@ void PatchSearch::backwardPass(const PyramidLevel& L, const cv::Mat1f& coarse, i
     cost_.loadBand(L, y0);
     // The doubled footprint, rows y0 - p/2 .. y0 + 3p/2 - 1, is p rows of
     // the coarser level from yc; rows it would not fit get no second look.
+    // Its validity band is loaded for the row's first second look only.
     const int yc = (y0 - half_p + 1) / 2;
     const bool look_coarser = coarser_ != nullptr && y0 >= half_p && yc + p_ <= coarser_->height;
-    if (look_coarser) coarser_cost_.loadBand(*coarser_, yc);
+    bool coarser_band_loaded = false;
     for (int ix = nx - 1; ix >= 0; --ix) {
       const size_t k = static_cast<size_t>(iy * nx + ix);
       const LoadedPatch& record = loaded_[k];
@@ -107,6 +108,8 @@ void PatchSearch::backwardPass(const PyramidLevel& L, const cv::Mat1f& coarse, i
       const int xc = (x0 - half_p + 1) / 2;
       if (look_coarser && estimates_[k].evidence < kCoarserLookBelowEvidence && x0 >= half_p &&
           xc + p_ <= coarser_->width && flatAtCoarserScale(x0, y0, coarse)) {
+        if (!coarser_band_loaded) coarser_cost_.loadBand(*coarser_, yc);
+        coarser_band_loaded = true;
         lookCoarser(k, xc, yc, u);
       }
     }
