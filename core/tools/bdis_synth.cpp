@@ -39,6 +39,8 @@ options:
   --textureless-patch    an albedo-flat disk on the tissue (tissue scene)
   --spot K               scope light beam falloff cos^K (default 2)
   --exposure E           light power factor (default 1)
+  --right-gain G         the right view's grey levels times G, 0.5..2: a gain difference
+                         between the cameras (default 1)
   --motion M             motion speed factor, 0 = static (default 1)
   --supersampling N      N x N samples on edges and highlight borders (default 3)
   --jpeg-quality Q       store each view as a JPEG of quality Q, 1..100, decoded (default 0: not)
@@ -123,6 +125,8 @@ int run(int argc, char** argv) {
       cfg.light_spot = parseDouble(a, optionValue(i, argc, argv));
     } else if (a == "--exposure") {
       cfg.exposure = parseDouble(a, optionValue(i, argc, argv));
+    } else if (a == "--right-gain") {
+      cfg.right_gain = parseDouble(a, optionValue(i, argc, argv));
     } else if (a == "--motion") {
       cfg.motion = parseDouble(a, optionValue(i, argc, argv));
     } else if (a == "--supersampling") {

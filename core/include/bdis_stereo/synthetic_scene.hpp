@@ -50,6 +50,7 @@ struct SceneConfig {
   bool textureless_patch = false;  ///< a large albedo-flat disk on the tissue (tissue scene only)
   double light_spot = 2.0;     ///< beam falloff exponent k of the scope light, cos^k (0 = isotropic)
   double exposure = 1.0;       ///< multiplies the light power (< 1: darker, noisier periphery)
+  double right_gain = 1.0;     ///< the right view's grey levels times this: the cameras' gain differs (0.5..2)
   double motion = 1.0;         ///< scales camera, breathing and instrument motion per frame (0 = static)
   int supersampling = 3;       ///< n: n x n samples on edges and highlight borders (1 = off)
   int jpeg_quality = 0;        ///< each view encoded and decoded as JPEG at this quality, 1..100 (0 = not)

@@ -45,6 +45,7 @@ void SceneConfig::validate() const {
   if (!(noise >= 0.0 && noise <= 50.0)) bad("noise = " + str(noise) + " is out of range [0, 50] grey levels");
   if (!(light_spot >= 0.0 && light_spot <= 200.0)) bad("light_spot = " + str(light_spot) + " is out of range [0, 200]");
   if (!(exposure > 0.0 && exposure <= 100.0)) bad("exposure = " + str(exposure) + " is out of range (0, 100]");
+  if (!(right_gain >= 0.5 && right_gain <= 2.0)) bad("right_gain = " + str(right_gain) + " is out of range [0.5, 2]");
   if (!(motion >= 0.0 && motion <= 100.0)) bad("motion = " + str(motion) + " is out of range [0, 100]");
   if (supersampling < 1 || supersampling > 8) {
     bad("supersampling = " + std::to_string(supersampling) + " is out of range [1, 8]");
@@ -372,6 +373,9 @@ struct SyntheticRenderer::Impl {
   void toImage(int which, int index, const CameraPass& P, cv::Mat& out) const {
     const int W = cfg.width, H = cfg.height;
     out.create(H, W, CV_8UC3);
+    // A gain after the tone curve: what the views' grey-level ratio shows on
+    // real rigs (a sensor's gain or white balance, not the light).
+    const double gain = which == 1 ? cfg.right_gain : 1.0;
     detail::GaussianRng rng(detail::mix64(cfg.seed * 0x9e3779b97f4a7c15ull + static_cast<uint64_t>(index) * 2 +
                                           static_cast<uint64_t>(which) + 0x5eed));
     for (int y = 0; y < H; ++y) {
@@ -384,6 +388,7 @@ struct SyntheticRenderer::Impl {
         const float* lin = &P.rgb[3 * (static_cast<size_t>(y) * W + x)];
         for (int c = 0; c < 3; ++c) {
           double v = encode(lin[c]);
+          if (gain != 1.0) v *= gain;
           if (cfg.noise > 0) v += cfg.noise * rng();
           const long q = std::lround(v);
           row[x][2 - c] = static_cast<uchar>(std::clamp(q, 1L, 255L));  // RGB -> BGR

@@ -53,6 +53,7 @@ std::string cameraYaml(const SceneConfig& c) {
     << "# synth_textureless_patch: " << (c.textureless_patch ? "true" : "false") << "\n"
     << "# synth_light_spot: " << number(c.light_spot) << "\n"
     << "# synth_exposure: " << number(c.exposure) << "\n"
+    << "# synth_right_gain: " << number(c.right_gain) << "\n"
     << "# synth_motion: " << number(c.motion) << "\n"
     << "# synth_supersampling: " << c.supersampling << "\n"
     << "# synth_jpeg_quality: " << c.jpeg_quality << "\n"

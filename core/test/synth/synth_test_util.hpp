@@ -31,7 +31,7 @@ inline std::string configKey(const SceneConfig& c) {
   std::ostringstream k;
   k << static_cast<int>(c.scene) << '/' << static_cast<int>(c.lighting) << '/' << c.width << 'x' << c.height << '/'
     << c.focal << '/' << c.baseline << '/' << c.noise << '/' << c.seed << '/' << c.instrument << c.black_borders
-    << c.textureless_patch << '/' << c.light_spot << '/' << c.exposure << '/' << c.motion << '/' << c.supersampling << '/'
+    << c.textureless_patch << '/' << c.light_spot << '/' << c.exposure << '/' << c.right_gain << '/' << c.motion << '/' << c.supersampling << '/'
     << c.jpeg_quality;
   return k.str();
 }

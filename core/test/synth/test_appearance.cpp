@@ -5,8 +5,10 @@
 // (noise level, black borders, no accidental black pixels) and the colour.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <utility>
+#include <vector>
 
 #include "bdis_stereo/evaluation.hpp"
 #include "synth_test_util.hpp"
@@ -50,6 +52,44 @@ TEST(Appearance, SpecularViolatesBrightnessConstancyAtTheHighlights) {
   EXPECT_GT(mean(spec_moved), 20 * mean(diff_moved));
   EXPECT_LT(shareAbove(diff_moved, 10.f), 0.005);
   EXPECT_LT(mean(spec_matte), 1.0);
+}
+
+TEST(Appearance, RightGainScalesTheRightViewOnly) {
+  // Noise-free diffuse frame 1 with the right view's gain at 1.1 and at 1:
+  // the left views are equal, and each right pixel in the gain's range
+  // (grey >= 20 and no channel above 225: away from the rounding and the
+  // clipping) is 1.1 times its counterpart to within the rounding to whole
+  // grey levels.
+  SceneConfig plain = variant("diffuse", 0.0);
+  SceneConfig gained = plain;
+  gained.right_gain = 1.1;
+  const SyntheticFrame& a = cachedFrame(plain, 1);
+  const SyntheticFrame& b = cachedFrame(gained, 1);
+  EXPECT_EQ(cv::norm(a.left, b.left, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(a.gt, b.gt, cv::NORM_INF), 0.0);
+  cv::Mat ga, gb;
+  grey(a.right).convertTo(ga, CV_32F);
+  grey(b.right).convertTo(gb, CV_32F);
+  std::vector<cv::Mat> channels;
+  cv::split(a.right, channels);
+  cv::Mat brightest = cv::max(channels[0], cv::max(channels[1], channels[2]));
+  const cv::Mat in_range = (ga >= 20.f) & (brightest <= 225);
+  const double n = cv::countNonZero(in_range);
+  ASSERT_GT(n, 0.5 * ga.total());
+  cv::Mat misfit;
+  cv::absdiff(gb, 1.1f * ga, misfit);
+  double worst = 0.0;
+  cv::minMaxLoc(misfit, nullptr, &worst, nullptr, nullptr, in_range);
+  std::printf("right gain 1.1: |R_1.1 - 1.1 R_1| at most %.2f grey levels on the %.0f%% of the pixels in range\n", worst,
+              100 * n / ga.total());
+  // Each colour channel rounds once in each render (0.5 + 1.1 * 0.5), the
+  // grey conversion once more in each (0.5 + 1.1 * 0.5): within 2.1.
+  EXPECT_LE(worst, 2.1);
+  cv::Mat ratio;
+  cv::divide(gb, ga, ratio);
+  std::vector<float> ratios = valuesWhere(ratio, in_range);
+  std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+  EXPECT_NEAR(ratios[ratios.size() / 2], 1.1, 0.01);
 }
 
 TEST(Appearance, OpenCvDisFastScoresClearlyWorseOnSpecularThanOnDiffuse) {

@@ -41,7 +41,7 @@ std::vector<std::string> withSmall(std::vector<std::string> args) {
 TEST_F(BdisSynthTool, WritesTheSequenceAndItsCalibration) {
   const RunResult r = run(withSmall({"--out", path("seq"), "--scene", "tube", "--lighting", "diffuse", "--focal",
                                      "130", "--baseline", "0.004", "--noise", "1.5", "--seed", "7",
-                                     "--jpeg-quality", "80"}));
+                                     "--jpeg-quality", "80", "--right-gain", "1.25"}));
   ASSERT_EQ(r.code(), 0) << r.all();
   EXPECT_TRUE(contains(r.out, "wrote 2 frames 160x120")) << r.out;
   const bdis::StereoSequence seq = bdis::StereoSequence::open(path("seq"));
@@ -52,7 +52,7 @@ TEST_F(BdisSynthTool, WritesTheSequenceAndItsCalibration) {
   for (const char* line : {"image_width: 160\n", "image_height: 120\n", "fx: 130.0\n", "fy: 130.0\n", "cx: 80.0\n",
                            "cy: 60.0\n", "baseline: 0.004\n", "# synth_scene: tube\n", "# synth_lighting: diffuse\n",
                            "# synth_seed: 7\n", "# synth_noise: 1.5\n", "# synth_frames: 2\n",
-                           "# synth_jpeg_quality: 80\n"}) {
+                           "# synth_jpeg_quality: 80\n", "# synth_right_gain: 1.25\n"}) {
     EXPECT_TRUE(contains(yaml, line)) << line << " missing in\n" << yaml;
   }
   // The same as rendering in-process with the same settings.
@@ -66,6 +66,7 @@ TEST_F(BdisSynthTool, WritesTheSequenceAndItsCalibration) {
   cfg.noise = 1.5;
   cfg.seed = 7;
   cfg.jpeg_quality = 80;
+  cfg.right_gain = 1.25;
   EXPECT_TRUE(bdis_test::identical(seq.right(1), bdis::synth::SyntheticRenderer(cfg).render(1).right));
 }
 

@@ -199,6 +199,8 @@ TEST(SceneConfigTest, ValidatesEveryField) {
   EXPECT_TRUE(contains(with([](SceneConfig& c) { c.frames = 0; }), "frames"));
   EXPECT_TRUE(contains(with([](SceneConfig& c) { c.noise = -0.5; }), "noise"));
   EXPECT_TRUE(contains(with([](SceneConfig& c) { c.exposure = 0; }), "exposure"));
+  EXPECT_TRUE(contains(with([](SceneConfig& c) { c.right_gain = 0.4; }), "right_gain"));
+  EXPECT_TRUE(contains(with([](SceneConfig& c) { c.right_gain = std::nan(""); }), "right_gain"));
   EXPECT_TRUE(contains(with([](SceneConfig& c) { c.light_spot = -1; }), "light_spot"));
   EXPECT_TRUE(contains(with([](SceneConfig& c) { c.motion = -1; }), "motion"));
   EXPECT_TRUE(contains(with([](SceneConfig& c) { c.supersampling = 0; }), "supersampling"));
