@@ -30,21 +30,24 @@ struct MatcherRun {
   std::vector<bdis::MatchResult> results;
 };
 
-const MatcherRun& bdisRun(const std::string& name) {
+const MatcherRun& bdisRun(const SceneConfig& config) {
   static std::map<std::string, MatcherRun> runs;
-  auto it = runs.find(name);
+  const std::string key = configKey(config);
+  auto it = runs.find(key);
   if (it != runs.end()) return it->second;
-  MatcherRun& run = runs[name];
+  MatcherRun& run = runs[key];
   cv::setNumThreads(1);
   bdis::Matcher matcher;  // default parameters
   for (int i : kFrames) {
-    const SyntheticFrame& f = cachedFrame(variant(name), i);
+    const SyntheticFrame& f = cachedFrame(config, i);
     run.frames.push_back(&f);
     run.results.emplace_back();
     matcher.compute(f.left, f.right, run.results.back());
   }
   return run;
 }
+
+const MatcherRun& bdisRun(const std::string& name) { return bdisRun(variant(name)); }
 
 struct Bar {
   const char* variant;
@@ -297,6 +300,42 @@ TEST(SyntheticBehaviour, ConfidenceRanksTheErrors) {
     EXPECT_LE(s.bad2_top50, bar.max_top50) << name;
     EXPECT_LE(s.ratio(), bar.max_ratio) << name;
     EXPECT_LE(s.area, bar.max_area) << name;
+  }
+}
+
+TEST(SyntheticBehaviour, GainDifferenceBetweenTheViewsStaysInTheLeastConfident) {
+  // The right camera's grey levels 10 % above or below the left's (real
+  // views differ by 0.87-1.11 over 33 px boxes) on the dark periphery. Mean
+  // normalisation cancels an offset, not a gain: on the periphery's
+  // brightness slope a gain leaves a ramp in the residual, which weak
+  // texture aligns to. A known gap (docs/method.md, "A gain difference
+  // between the views"): the bars hold what it scores; the confidence must
+  // still put those errors where a threshold removes them.
+  // Measured (density / bad2; bad2 of the most confident half; deciles,
+  // least confident first):
+  //   gain 1.0  0.769 /  4.8 %; 0.0 %: 29.7 10.9  5.2  1.3 0.2 0.1 0.0 0.0 0.0 0.0
+  //   gain 1.1  0.761 /  9.5 %; 0.0 %: 65.0 23.0  6.3  1.0 0.0 0.0 0.0 0.0 0.0 0.0
+  //   gain 0.9  0.750 / 10.5 %; 0.0 %: 58.6 27.7 11.3  5.6 2.1 0.1 0.0 0.0 0.0 0.0
+  struct Bar {
+    double gain, min_density, max_bad2;
+  };
+  for (const Bar& bar : {Bar{1.1, 0.73, 0.115}, Bar{0.9, 0.72, 0.125}}) {
+    SceneConfig config = variant("dark_periphery");
+    config.right_gain = bar.gain;
+    const MatcherRun& run = bdisRun(config);
+    bdis::DisparityScore score;
+    for (size_t k = 0; k < run.frames.size(); ++k) {
+      score.add(bdis::scoreDisparity(run.results[k].disparity, run.frames[k]->gt, run.frames[k]->left));
+    }
+    const bdis::Sparsification s = bdis::sparsify(samplesOf(run));
+    std::printf("  right gain %.1f: density %.3f, bad2 %.1f %%; most confident half %.1f %%, deciles:", bar.gain,
+                score.density(), 100 * score.bad2Rate(), 100 * s.bad2_top50);
+    for (double d : s.decile_bad2) std::printf(" %.1f", 100 * d);
+    std::printf("\n");
+    EXPECT_GE(score.density(), bar.min_density) << bar.gain;
+    EXPECT_LE(score.bad2Rate(), bar.max_bad2) << bar.gain;
+    EXPECT_TRUE(s.monotone()) << bar.gain;
+    EXPECT_LE(s.bad2_top50, 0.01) << bar.gain;
   }
 }
 
