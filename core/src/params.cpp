@@ -76,6 +76,8 @@ const std::vector<ParamField>& paramFields() {
             "start each patch from a neighbour's disparity when that fits better (DIS)"),
       field("search_band_rows", &MatcherParams::search_band_rows, 0, 10000,
             "finest level searched in bands of this many patch rows (in cache); 0 = the whole level (DIS)"),
+      field("gain_compensation", &MatcherParams::gain_compensation, 0, 1,
+            "divide out the views' contrast gain, estimated from the coarser levels"),
       field("coarser_look", &MatcherParams::coarser_look, 0, 1,
             "finest level: a patch without evidence searches again one level coarser, on twice its footprint"),
       field("min_valid_share", &MatcherParams::min_valid_share, 0.0, 1.0,

@@ -38,6 +38,13 @@ struct MatcherParams {
   /// Finest level: forward and backward pass per band of this many patch
   /// rows, which stays in cache; 0 = over the whole level at once, as DIS.
   int search_band_rows = 8;
+  /// Divides the views' contrast gain out of the right view, estimated from
+  /// the coarser levels' matches: mean normalisation cancels an offset only,
+  /// and on a brightness slope a gain biases weak-texture patches. Off by
+  /// default: on views without a gain the estimate errs by 1-5 % where near
+  /// surfaces occlude dimmer far ones, which costs as much as it mends
+  /// (docs/method.md, "A gain difference between the views").
+  bool gain_compensation = false;
   /// At the finest level, a patch whose posterior barely tells its
   /// disparities apart searches again one level coarser, on twice its
   /// footprint: more estimates on dark and flat tissue at the same bad2, for

@@ -5,6 +5,8 @@
 #include "bdis_stereo/matcher.hpp"
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -20,6 +22,7 @@
 #include "support_cue.hpp"
 #include "upsampling.hpp"
 #include "variational_refinement.hpp"
+#include "view_gain.hpp"
 
 namespace bdis {
 
@@ -75,6 +78,7 @@ struct Matcher::Impl {
   detail::MirroredPyramid mirrored;         ///< the mirrored pair: right image as reference
   detail::SearchPass left;                  ///< the search whose result is published
   detail::SearchPass check;                 ///< the left-right check's search
+  detail::ViewGainEstimator gain_estimator;
   std::vector<detail::SearchBand> bands;    ///< the finest level's search order
   detail::SlantCue slant;
   detail::SupportCue support;
@@ -87,6 +91,13 @@ struct Matcher::Impl {
   void configureFor(int width);
   /// Both searches from `resolved`.
   void configureSearches();
+
+  /// The published search's levels above the finest, coarsest first. The
+  /// last kGainLevelsAboveFinest of them each estimate the views' gain
+  /// that remains; every right view is divided by the gain known when it
+  /// is searched, and at the end by all of it (the check's search and the
+  /// finest level come after).
+  void matchLevelsAboveFinest(int levels, int finest);
 
   /// The finest level of both searches, band by band in the order of
   /// scheduleFinestBands; the check's rows are mirrored just before their band.
@@ -121,7 +132,8 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   // 1. Pyramid: grey levels, gradients and validity of the pair.
   m.pyramid.build(left, right, levels, finest, P.saturation_grey);
   // 2. Coarse to fine above the finest level; each level initialises the next.
-  m.left.matchLevelsAboveFinest(m.pyramid, left.size(), levels, finest);
+  m.left.beginLevelsAboveFinest(left.size(), levels, finest);
+  m.matchLevelsAboveFinest(levels, finest);
   if (with_check) {
     const MatcherParams& C = m.check.params();
     const int band_rows = detail::bandLevelRows(C.search_band_rows, detail::patchStride(C.patch_size, C.overlap),
@@ -178,6 +190,27 @@ void Matcher::Impl::configureFor(int width) {
 void Matcher::Impl::configureSearches() {
   left.configure(resolved, /*keep_confidence=*/true);
   check.configure(checkParams(resolved), /*keep_confidence=*/false);
+}
+
+void Matcher::Impl::matchLevelsAboveFinest(int levels, int finest) {
+  CV_Assert(levels <= detail::kMaxPyramidLevels);
+  const int first_gain_level = resolved.gain_compensation ? finest + detail::kGainLevelsAboveFinest : -1;
+  float gain = 1.f;  // right view over left: what the levels matched so far measured
+  std::array<float, detail::kMaxPyramidLevels> divided{};  // the gain each right view is divided by
+  divided.fill(1.f);
+  auto divide = [&](int s) {
+    if (divided[static_cast<size_t>(s)] == gain) return;
+    pyramid.scaleRightView(s, divided[static_cast<size_t>(s)] / gain);
+    divided[static_cast<size_t>(s)] = gain;
+  };
+  for (int s = levels - 1; s > finest; --s) {
+    divide(s);
+    left.matchCoarseLevel(pyramid.level(s), s);
+    if (s > first_gain_level) continue;
+    const float remaining = gain_estimator.estimate(pyramid.level(s), left.levelDisparity(s));
+    if (std::fabs(remaining - 1.f) > detail::kGainTolerance) gain *= remaining;
+  }
+  for (int s = finest; s < levels; ++s) divide(s);
 }
 
 void Matcher::Impl::searchFinestLevel(int finest, bool with_check) {

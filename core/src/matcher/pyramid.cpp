@@ -30,6 +30,14 @@ void lumaOfBgrRow(const uchar* __restrict bgr, int w, int saturated, uchar* __re
   }
 }
 
+void StereoPyramid::scaleRightView(int s, float factor) {
+  cv::Mat1f& right = levels_[static_cast<size_t>(s)].right;
+  for (int y = 0; y < right.rows; ++y) {
+    float* row = right[y];
+    for (int x = 0; x < right.cols; ++x) row[x] *= factor;
+  }
+}
+
 namespace {
 
 /// Rectification leaves more than black outside the view: interpolating the

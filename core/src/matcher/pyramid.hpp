@@ -19,6 +19,9 @@ void validityOfMonoRow(const uchar* src, int w, int saturated, uchar* valid);
 /// Grey level (Rec. 601 luma, as the matcher takes it) and validity of a BGR row.
 void lumaOfBgrRow(const uchar* bgr, int w, int saturated, uchar* grey, uchar* valid);
 
+/// Levels a pyramid may have: coarsest_level is at most 10 (see params).
+constexpr int kMaxPyramidLevels = 11;
+
 /// One pyramid level of one stereo pair.
 struct PyramidLevel {
   int width = 0;
@@ -57,6 +60,9 @@ class StereoPyramid {
   const PyramidLevel& level(int s) const { return levels_[static_cast<size_t>(s)]; }
   int numLevels() const { return static_cast<int>(levels_.size()); }
   cv::Size size() const { return size_; }  ///< of the input (level 0)
+  /// Multiplies the right view's grey levels of level s (a searched one) by
+  /// `factor`; validity unchanged.
+  void scaleRightView(int s, float factor);
 
  private:
   /// Level 1 straight from the 8-bit inputs when level 0 is not searched:

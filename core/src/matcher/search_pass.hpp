@@ -29,9 +29,15 @@ class SearchPass {
   /// pass's buffers for a pyramid of that many levels over an input of `size`.
   template <class Pyramid>
   void matchLevelsAboveFinest(const Pyramid& pyramid, cv::Size size, int levels, int finest) {
-    allocate(size, levels, finest);
+    beginLevelsAboveFinest(size, levels, finest);
     for (int s = levels - 1; s > finest; --s) matchCoarseLevel(pyramid.level(s), s);
   }
+  /// matchLevelsAboveFinest a level at a time: beginLevelsAboveFinest, then
+  /// matchCoarseLevel for s = levels-1 down to finest+1.
+  void beginLevelsAboveFinest(cv::Size size, int levels, int finest) { allocate(size, levels, finest); }
+  void matchCoarseLevel(const PyramidLevel& L, int s);
+  /// The dense disparity of level s > finest (level px), once it is matched.
+  const cv::Mat1f& levelDisparity(int s) const { return initialisation_[static_cast<size_t>(s)]; }
 
   /// The finest level, s: beginFinestLevel, then searchFinestBand for
   /// every band of patch rows of grid() from the top, then fuseFinestLevel.
@@ -49,7 +55,6 @@ class SearchPass {
 
  private:
   void allocate(cv::Size size, int levels, int finest);
-  void matchCoarseLevel(const PyramidLevel& L, int s);
 
   MatcherParams params_;
   bool keep_confidence_ = true;

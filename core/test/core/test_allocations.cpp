@@ -164,6 +164,11 @@ MatcherParams withVariance() {
   return p;
 }
 MatcherParams preset(const char* name) { return MatcherParams::preset(name); }
+MatcherParams withGainCompensation() {
+  MatcherParams p;
+  p.gain_compensation = true;
+  return p;
+}
 MatcherParams fullResolutionNoChecks() {
   MatcherParams p;
   p.finest_level = 0;
@@ -179,6 +184,7 @@ INSTANTIATE_TEST_SUITE_P(
                       AllocationCase{"variance", withVariance(), false},
                       AllocationCase{"fast", preset("fast"), false},
                       AllocationCase{"accurate", preset("accurate"), true},
+                      AllocationCase{"gain compensation", withGainCompensation(), false},
                       AllocationCase{"finest 0, no checks", fullResolutionNoChecks(), false}),
     [](const auto& info) {
       std::string n = info.param.name;

@@ -93,6 +93,7 @@ const std::vector<NamedConfig>& configs() {
          p.coarser_look = true;
          p.compute_variance = true;
        }},
+      {"gain_compensation", [](MatcherParams& p) { p.gain_compensation = true; }},
   };
   return list;
 }
@@ -295,6 +296,7 @@ const std::vector<Expected> kGeneratedPairHashes = {
     {"strict_validity", 0x67b29f5956f034baull, 0x806f2887ddffb63eull, 0x8d1410cf1bc3fdf1ull},
     {"tiny_sigma_s_variance", 0xcea9d91d208071c7ull, 0x36a64f1bc02728f7ull, 0xf1e48920e81fbbc3ull},
     {"coarser_look_variance", 0x4a9740ef952aa7b7ull, 0xf9025b1b5b18ff6eull, 0x9db39e21c3863acdull},
+    {"gain_compensation", 0xf30adc66d708cba7ull, 0x9b5755f431115c2cull, 0xb89de79ba9d0b772ull},
 };
 
 // The same on the first frame of each colon sequence of the shared data.
@@ -320,6 +322,7 @@ const std::vector<Expected> kColonFrameHashes = {
     {"strict_validity", 0xcb5ce9bb40b79d33ull, 0xb5bd29abd79a7c67ull, 0x39ea2fed11144d5aull},
     {"tiny_sigma_s_variance", 0xe0fbe58d788cb3d7ull, 0xfaf23e3b5e1e2087ull, 0x909be1b8cd633181ull},
     {"coarser_look_variance", 0x355a9aab2f951abcull, 0xc97339d505414ea0ull, 0x1304b122d26b4539ull},
+    {"gain_compensation", 0x7d9727cfdc1ce29full, 0x3e9dd3e2da8feda0ull, 0x423d138aab5a11d9ull},
 };
 
 }  // namespace
