@@ -41,9 +41,9 @@ struct MatcherParams {
   /// Divides the views' contrast gain out of the right view, estimated from
   /// the coarser levels' matches: mean normalisation cancels an offset only,
   /// and on a brightness slope a gain biases weak-texture patches. Off by
-  /// default: on views without a gain the estimate errs by 1-5 % where near
-  /// surfaces occlude dimmer far ones, which costs as much as it mends
-  /// (docs/method.md, "A gain difference between the views").
+  /// default: on views without a gain the estimate strays by 2-8 % in deep
+  /// scenes, which costs as much as it mends (docs/method.md, "Gain
+  /// compensation").
   bool gain_compensation = false;
   /// At the finest level, a patch whose posterior barely tells its
   /// disparities apart searches again one level coarser, on twice its
