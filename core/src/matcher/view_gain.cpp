@@ -32,9 +32,9 @@ float ViewGainEstimator::estimate(const PyramidLevel& L, const cv::Mat1f& dispar
           // smooths one view only; the nearest is off by at most half a
           // pixel, either way alike.
           const float at = static_cast<float>(x) - d[x] + 0.5f;
-          if (!(at >= 0.f)) continue;
+          if (!(at >= 0.f && at < static_cast<float>(L.width))) continue;  // also NaN
           const int xr = static_cast<int>(at);  // rounded: `at` is not negative
-          if (xr >= L.width || !right_valid[xr]) continue;
+          if (!right_valid[xr]) continue;
           const float l = left[x];
           const float r = right[xr];
           if (!(r >= kGainMinGrey)) continue;  // as the left: the dark is noise
@@ -49,12 +49,14 @@ float ViewGainEstimator::estimate(const PyramidLevel& L, const cv::Mat1f& dispar
       // A highlight in either view is no gain.
       if (bright || n < kGainMinBlockPixels) continue;
       const float inv_n = 1.f / static_cast<float>(n);
-      const float var_left = sq_left * inv_n - (sum_left * inv_n) * (sum_left * inv_n);
-      const float var_right = sq_right * inv_n - (sum_right * inv_n) * (sum_right * inv_n);
+      // Rounding can leave a flat block's variance a hair below 0.
+      const float var_left = std::max(0.f, sq_left * inv_n - (sum_left * inv_n) * (sum_left * inv_n));
+      const float var_right = std::max(0.f, sq_right * inv_n - (sum_right * inv_n) * (sum_right * inv_n));
       // Selected on both views' contrast alike, so that noise in one view
       // does not pick the blocks where it happens to be large.
       if (!(var_left + var_right >= kGainMinVariance) || !(var_left > 0.f)) continue;
-      const float ratio = std::sqrt(var_right / var_left);
+      // Clamped before the logarithm: a flat right block gives 0.
+      const float ratio = std::clamp(std::sqrt(var_right / var_left), kGainMin, kGainMax);
       const int bin = static_cast<int>((std::log(ratio) - log_min) * bins_per_log);
       ++histogram_[static_cast<size_t>(std::clamp(bin, 0, kBins - 1))];
       ++counted;
