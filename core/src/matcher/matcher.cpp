@@ -97,7 +97,7 @@ struct Matcher::Impl {
   /// that remains; every right view is divided by the gain known when it
   /// is searched, and at the end by all of it (the check's search and the
   /// finest level come after).
-  void matchLevelsAboveFinest(int levels, int finest);
+  void matchLevelsAboveFinest(cv::Size size, int levels, int finest);
 
   /// The finest level of both searches, band by band in the order of
   /// scheduleFinestBands; the check's rows are mirrored just before their band.
@@ -132,8 +132,7 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   // 1. Pyramid: grey levels, gradients and validity of the pair.
   m.pyramid.build(left, right, levels, finest, P.saturation_grey);
   // 2. Coarse to fine above the finest level; each level initialises the next.
-  m.left.beginLevelsAboveFinest(left.size(), levels, finest);
-  m.matchLevelsAboveFinest(levels, finest);
+  m.matchLevelsAboveFinest(left.size(), levels, finest);
   if (with_check) {
     const MatcherParams& C = m.check.params();
     const int band_rows = detail::bandLevelRows(C.search_band_rows, detail::patchStride(C.patch_size, C.overlap),
@@ -192,8 +191,9 @@ void Matcher::Impl::configureSearches() {
   check.configure(checkParams(resolved), /*keep_confidence=*/false);
 }
 
-void Matcher::Impl::matchLevelsAboveFinest(int levels, int finest) {
+void Matcher::Impl::matchLevelsAboveFinest(cv::Size size, int levels, int finest) {
   CV_Assert(levels <= detail::kMaxPyramidLevels);
+  left.beginLevelsAboveFinest(size, levels, finest);
   const int first_gain_level = resolved.gain_compensation ? finest + detail::kGainLevelsAboveFinest : -1;
   float gain = 1.f;  // right view over left: what the levels matched so far measured
   std::array<float, detail::kMaxPyramidLevels> divided{};  // the gain each right view is divided by
