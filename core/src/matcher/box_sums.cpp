@@ -46,6 +46,8 @@ void boxRow(int w, int side, const float* padded, float* out) {
   }
 }
 
+}  // namespace
+
 BDIS_ROW_LOOP
 void addRow(int w, const float* __restrict row, float* __restrict sum) {
   for (int x = 0; x < w; ++x) sum[x] += row[x];
@@ -55,8 +57,6 @@ BDIS_ROW_LOOP
 void subtractRow(int w, const float* __restrict row, float* __restrict sum) {
   for (int x = 0; x < w; ++x) sum[x] -= row[x];
 }
-
-}  // namespace
 
 void BoxSums::begin(int w, int h, int r, bool with_b) {
   w_ = w;

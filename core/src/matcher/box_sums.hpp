@@ -10,6 +10,11 @@
 namespace bdis {
 namespace detail {
 
+/// sum[x] += row[x] and sum[x] -= row[x] for x < w: a vertical box sliding
+/// down one row in, one row out.
+void addRow(int w, const float* row, float* sum);
+void subtractRow(int w, const float* row, float* sum);
+
 /// The sums of two maps A and B over a (2r+1) x (2r+1) box around each pixel,
 /// the box clipped to the map. Use: begin(); for each row y, fill paddedA()
 /// and paddedB() at columns 0..w-1 and call sumRow(y); then for each row y in

@@ -5,8 +5,10 @@
 // right image lands elsewhere (left-right check), where the surface is too
 // slanted for a patch of one disparity or, on strong texture, misfits it
 // (slant_cue.hpp), where most of its neighbourhood got no estimate
-// (support_cue.hpp) and where it stands apart from the estimates of its
-// wider neighbourhood (consensus_cue.hpp). Measured on generated
+// (support_cue.hpp), where it stands apart from the estimates of its
+// wider neighbourhood (consensus_cue.hpp) and where the images, warped by
+// the estimates, still show a slant they miss (residual_slant_cue.hpp).
+// Measured on generated
 // scenes and the colon sequences, each cue ranks the wrong estimates better
 // than the evidence alone; see docs/method.md for the figures.
 #pragma once
@@ -35,6 +37,9 @@ constexpr float kSupportHalvingShare = 0.25f;
 /// Distance of an estimate from the mean of the estimates around it (two
 /// patch sides each way) at which the confidence halves: that of the spread.
 constexpr float kConsensusHalvingPx = kSpreadHalvingPx;
+/// Disparity change across a patch that the photometric residual of the
+/// estimates still asks for at which the confidence halves: that of the spread.
+constexpr float kResidualSlantHalvingPx = kSpreadHalvingPx;
 
 /// The variance of a pixel's disparity, as a standard deviation of its
 /// error should be: a share of the covering patches' window fit (which alone
