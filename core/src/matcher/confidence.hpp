@@ -7,7 +7,8 @@
 // (slant_cue.hpp), where most of its neighbourhood got no estimate
 // (support_cue.hpp), where it stands apart from the estimates of its
 // wider neighbourhood (consensus_cue.hpp) and where the images, warped by
-// the estimates, still show a slant they miss (residual_slant_cue.hpp).
+// the estimates, still show a slant they miss or pin their shift only
+// loosely against their own noise (residual_fit_cue.hpp).
 // Measured on generated
 // scenes and the colon sequences, each cue ranks the wrong estimates better
 // than the evidence alone; see docs/method.md for the figures.
@@ -40,6 +41,10 @@ constexpr float kConsensusHalvingPx = kSpreadHalvingPx;
 /// Disparity change across a patch that the photometric residual of the
 /// estimates still asks for at which the confidence halves: that of the spread.
 constexpr float kResidualSlantHalvingPx = kSpreadHalvingPx;
+/// Standard error of the disparity that a patch's footprint would give,
+/// with the texture and the residual's noise around it, at which the
+/// confidence halves: that of the spread.
+constexpr float kShiftErrorHalvingPx = kSpreadHalvingPx;
 
 /// The variance of a pixel's disparity, as a standard deviation of its
 /// error should be: a share of the covering patches' window fit (which alone

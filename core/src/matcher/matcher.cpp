@@ -17,7 +17,7 @@
 #include "left_right_check.hpp"
 #include "patch_grid.hpp"
 #include "pyramid.hpp"
-#include "residual_slant_cue.hpp"
+#include "residual_fit_cue.hpp"
 #include "search_pass.hpp"
 #include "slant_cue.hpp"
 #include "support_cue.hpp"
@@ -84,7 +84,7 @@ struct Matcher::Impl {
   detail::SlantCue slant;
   detail::SupportCue support;
   detail::ConsensusCue consensus;
-  detail::ResidualSlantCue residual_slant;
+  detail::ResidualFitCue residual_fit;
   detail::VariationalRefinement refinement;
   detail::Upsampler upsampler;
 
@@ -165,10 +165,12 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
                   out.confidence);
   // 8. The consensus cue: estimates that stand apart from their neighbourhood.
   m.consensus.apply(out.disparity, P.patch_size, detail::kConsensusHalvingPx * level_px, out.confidence);
-  // 9. The residual slant cue: a slant the estimates miss that the images still show.
+  // 9. The residual fit cues: a slant the estimates miss that the images
+  //    still show, and a shift their texture pins only loosely.
   if (finest + 1 < m.pyramid.numLevels()) {
-    m.residual_slant.apply(out.disparity, m.pyramid.level(finest + 1), P.patch_size,
-                           detail::kResidualSlantHalvingPx * level_px, out.confidence);
+    m.residual_fit.apply(out.disparity, m.pyramid.level(finest + 1), P.patch_size,
+                         detail::kResidualSlantHalvingPx * level_px, detail::kShiftErrorHalvingPx * level_px,
+                         out.confidence);
   }
   // 10. Upsampling to the input resolution.
   m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, outputs.confidence, result);

@@ -1,4 +1,4 @@
-#include "residual_slant_cue.hpp"
+#include "residual_fit_cue.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -30,7 +30,7 @@ void blockRow(int w, int bw, const float* __restrict a, const float* __restrict 
 }
 
 /// What one level row contributes to the fit, per pixel: the weight (1 where
-/// the residual can be read), g, g^2, the residual r and g r, all 0 where
+/// the residual can be read), g, g^2, the residual r, g r and r^2, all 0 where
 /// it cannot: no estimate, an invalid left pixel, a match column outside
 /// the right view or next to an invalid right pixel.
 void productsRow(int w, const float* disparity, const float* left, const float* gx, const uchar* left_valid,
@@ -49,25 +49,31 @@ void productsRow(int w, const float* disparity, const float* left, const float* 
     products[2][x] = g * g;
     products[3][x] = residual;
     products[4][x] = g * residual;
+    products[5][x] = residual * residual;
   }
 }
 
 /// Per pixel of a row, from the column sums of the products (each padded
 /// with R zeros each side) over the box's rows: the horizontal box sums and
-/// their moments in u (the column's offset from the box centre), then b of
-/// the least-squares fit r = o + g a + g u b (the offset o eliminated first,
-/// so that float keeps the precision), as a disparity change across a
-/// patch, through agreement() with the halving. A box with fewer usable
-/// pixels than `min_count`, or whose texture cannot tell a shift from a
-/// slope, gets 1: no say. R is the box radius; R = 0 takes `radius`
-/// instead (a radius not compiled in).
+/// their moments in u (the column's offset from the box centre), then the
+/// least-squares fit r = o + g a + g u b (the offset o eliminated first, so
+/// that float keeps the precision). The factor is agreement() of b as a
+/// disparity change across a patch (`patch_px` b, `inv_slant_halving_sq`)
+/// times agreement() of the variance a patch's footprint would give the
+/// shift, the box's variance of a scaled by its samples over a patch's
+/// (`footprint_scale`, to finest-level px^2; `inv_error_halving_sq`). A box
+/// with fewer usable pixels than `min_count`, or whose texture cannot tell a
+/// shift from a slope, gets 1: no say. R is the box radius; R = 0 takes
+/// `radius` instead (a radius not compiled in).
 template <int R>
 BDIS_ROW_LOOP void factorRow(int w, int radius, const float* const* columns, float min_count, float patch_px,
-                             float inv_halving_sq, float* __restrict factor) {
+                             float inv_slant_halving_sq, float footprint_scale, float inv_error_halving_sq,
+                             float* __restrict factor) {
   const int r = R > 0 ? R : radius;
   const float *cw = columns[0], *cg = columns[1], *cgg = columns[2], *cr = columns[3], *cgr = columns[4];
+  const float* crr = columns[5];
   for (int x = 0; x < w; ++x) {
-    float n = 0, sg = 0, sgu = 0, sgg = 0, sggu = 0, sgguu = 0, tr = 0, tgr = 0, tgru = 0;
+    float n = 0, sg = 0, sgu = 0, sgg = 0, sggu = 0, sgguu = 0, tr = 0, tgr = 0, tgru = 0, trr = 0;
     // Unrolled, the loop over x vectorises (17 taps are past GCC's own limit).
 #pragma GCC unroll 24
     for (int k = 0; k <= 2 * r; ++k) {
@@ -82,6 +88,7 @@ BDIS_ROW_LOOP void factorRow(int w, int radius, const float* const* columns, flo
       tr += cr[i];
       tgr += cgr[i];
       tgru += u * cgr[i];
+      trr += crr[i];
     }
     const float inv_n = 1.f / std::max(n, 1.f);
     const float a11 = sgg - sg * sg * inv_n;
@@ -91,8 +98,17 @@ BDIS_ROW_LOOP void factorRow(int w, int radius, const float* const* columns, flo
     const float b2 = tgru - sgu * tr * inv_n;
     const float det = a11 * a22 - a12 * a12;
     const bool fitted = n >= min_count && det > 1e-4f * a11 * a22;
-    const float change = (a11 * b2 - a12 * b1) / (fitted ? det : 1.f) * patch_px;
-    factor[x] = fitted ? 1.f / (1.f + change * change * inv_halving_sq) : 1.f;
+    const float inv_det = 1.f / (fitted ? det : 1.f);
+    const float a = (a22 * b1 - a12 * b2) * inv_det;
+    const float b = (a11 * b2 - a12 * b1) * inv_det;
+    const float change = b * patch_px;
+    // The residual's variance left after the fit, and a's under it.
+    const float unexplained = std::max(trr - tr * tr * inv_n - a * b1 - b * b2, 0.f);
+    const float noise = unexplained / std::max(n - 3.f, 1.f);
+    const float shift_variance = noise * a22 * inv_det * footprint_scale;
+    const float slant = 1.f / (1.f + change * change * inv_slant_halving_sq);
+    const float precision = 1.f / (1.f + shift_variance * inv_error_halving_sq);
+    factor[x] = fitted ? slant * precision : 1.f;
   }
 }
 
@@ -103,8 +119,8 @@ void scaleRow(int w, const float* __restrict disparity, const float* __restrict 
 
 }  // namespace
 
-void ResidualSlantCue::apply(const cv::Mat1f& disparity, const PyramidLevel& coarser, int patch_px, float halving,
-                             cv::Mat1f& confidence) {
+void ResidualFitCue::apply(const cv::Mat1f& disparity, const PyramidLevel& coarser, int patch_px, float slant_halving,
+                           float error_halving, cv::Mat1f& confidence) {
   CV_Assert(confidence.size() == disparity.size());
   const int w = disparity.cols, h = disparity.rows;
   const int wc = coarser.width, hc = coarser.height;
@@ -135,7 +151,15 @@ void ResidualSlantCue::apply(const cv::Mat1f& disparity, const PyramidLevel& coa
   }
 
   const float min_count = static_cast<float>(2 * r + 1);
-  const float inv_halving_sq = 1.f / (halving * halving);
+  const float inv_slant_halving_sq = 1.f / (slant_halving * slant_halving);
+  const float inv_error_halving_sq = 1.f / (error_halving * error_halving);
+  // a's variance from the box, scaled to a patch's footprint: the box's
+  // sampled pixels, each standing for two of the coarser level (every
+  // other row), over a patch's (p / 2)^2 pixels there, and from
+  // coarser-level px^2 to finest-level px^2. A box with holes has fewer
+  // samples and so a wider error: its shift is known less well.
+  const float box_samples = static_cast<float>((2 * ry + 1) * (2 * r + 1));
+  const float footprint_scale = box_samples * 2.f / (0.25f * static_cast<float>(patch_px * patch_px)) * 4.f;
   const float* padded_columns[kProducts];
   for (int k = 0; k < kProducts; ++k) padded_columns[k] = columns[k] - r;
   for (int j = 0; j < rows; ++j) {
@@ -150,9 +174,11 @@ void ResidualSlantCue::apply(const cv::Mat1f& disparity, const PyramidLevel& coa
       if (j - ry - 1 >= 0) subtractRow(wc, product_row(k, j - ry - 1), columns[k]);
     }
     if (r == 8) {  // the default patch side's box, unrolled
-      factorRow<8>(wc, r, padded_columns, min_count, static_cast<float>(patch_px), inv_halving_sq, block_factor_.data());
+      factorRow<8>(wc, r, padded_columns, min_count, static_cast<float>(patch_px), inv_slant_halving_sq,
+                   footprint_scale, inv_error_halving_sq, block_factor_.data());
     } else {
-      factorRow<0>(wc, r, padded_columns, min_count, static_cast<float>(patch_px), inv_halving_sq, block_factor_.data());
+      factorRow<0>(wc, r, padded_columns, min_count, static_cast<float>(patch_px), inv_slant_halving_sq,
+                   footprint_scale, inv_error_halving_sq, block_factor_.data());
     }
     for (int x = 0; x < w; ++x) factor_[static_cast<size_t>(x)] = block_factor_[static_cast<size_t>(std::min(x / 2, wc - 1))];
     // Sampled row j serves coarser rows 2j and 2j + 1, finest rows 4j to
