@@ -46,7 +46,35 @@ void boxRow(int w, int side, const float* padded, float* out) {
   }
 }
 
+/// Per column, the sum of the estimates of rows a and b and their count (b
+/// may be a again, with weight 0: the last block row of an odd height).
+BDIS_ROW_LOOP
+void pairOfRows(int w, const float* __restrict a, const float* __restrict b, float b_weight, float* __restrict sum,
+                float* __restrict count) {
+  for (int x = 0; x < w; ++x) {
+    const float has_a = a[x] >= 0.f ? 1.f : 0.f;
+    const float has_b = b[x] >= 0.f ? b_weight : 0.f;
+    sum[x] = has_a * a[x] + has_b * b[x];
+    count[x] = has_a + has_b;
+  }
+}
+
 }  // namespace
+
+void BlockEstimates::row(const cv::Mat1f& disparity, int by, int bw, float* sum, float* count) {
+  const int w = disparity.cols, h = disparity.rows;
+  CV_Assert(bw <= (w + 1) / 2 && 2 * by < h);
+  pair_sum_.resize(static_cast<size_t>(bw) * 2);
+  pair_count_.resize(static_cast<size_t>(bw) * 2);
+  const int y1 = std::min(2 * by + 1, h - 1);
+  const int columns = std::min(w, 2 * bw);
+  pairOfRows(columns, disparity[2 * by], disparity[y1], y1 > 2 * by ? 1.f : 0.f, pair_sum_.data(), pair_count_.data());
+  if (2 * bw > w) pair_sum_[w] = pair_count_[w] = 0.f;  // an odd width's last block has one column
+  for (int bx = 0; bx < bw; ++bx) {
+    sum[bx] = pair_sum_[2 * bx] + pair_sum_[2 * bx + 1];
+    count[bx] = pair_count_[2 * bx] + pair_count_[2 * bx + 1];
+  }
+}
 
 BDIS_ROW_LOOP
 void addRow(int w, const float* __restrict row, float* __restrict sum) {

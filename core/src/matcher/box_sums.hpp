@@ -15,6 +15,20 @@ namespace detail {
 void addRow(int w, const float* row, float* sum);
 void subtractRow(int w, const float* row, float* sum);
 
+/// The estimates (>= 0; none below) of a finest-level disparity map taken
+/// in 2 x 2 blocks, one block row at a time: per block, their sum and their
+/// count; the last block row and column are clipped to the map. For the cues
+/// that work on blocks (consensus_cue.hpp, residual_fit_cue.hpp). Scratch is
+/// kept for the next row and frame.
+class BlockEstimates {
+ public:
+  /// Blocks 0..bw-1 (bw <= (w + 1) / 2) of block row `by` into sum and count.
+  void row(const cv::Mat1f& disparity, int by, int bw, float* sum, float* count);
+
+ private:
+  std::vector<float> pair_sum_, pair_count_;  ///< the two rows' sums, per column
+};
+
 /// The sums of two maps A and B over a (2r+1) x (2r+1) box around each pixel,
 /// the box clipped to the map. Use: begin(); for each row y, fill paddedA()
 /// and paddedB() at columns 0..w-1 and call sumRow(y); then for each row y in

@@ -9,19 +9,6 @@ namespace bdis {
 namespace detail {
 namespace {
 
-/// Per column, the sum of the estimates of rows a and b and their count (b
-/// may be a again, with weight 0: the last block row of an odd height).
-BDIS_ROW_LOOP
-void pairOfRows(int w, const float* __restrict a, const float* __restrict b, float b_weight, float* __restrict sum,
-                float* __restrict count) {
-  for (int x = 0; x < w; ++x) {
-    const float has_a = a[x] >= 0.f ? 1.f : 0.f;
-    const float has_b = b[x] >= 0.f ? b_weight : 0.f;
-    sum[x] = has_a * a[x] + has_b * b[x];
-    count[x] = has_a + has_b;
-  }
-}
-
 BDIS_ROW_LOOP
 void consensusRow(int w, const float* __restrict mean, const float* __restrict disparity, float inv_halving_sq,
                   float* __restrict confidence) {
@@ -38,8 +25,6 @@ void ConsensusCue::apply(const cv::Mat1f& disparity, int patch_px, float halving
   CV_Assert(confidence.size() == disparity.size());
   const int w = disparity.cols, h = disparity.rows;
   const int bw = (w + 1) / 2, bh = (h + 1) / 2;  // 2 x 2 blocks
-  pair_sum_.resize(static_cast<size_t>(bw) * 2);
-  pair_count_.resize(static_cast<size_t>(bw) * 2);
   block_mean_.resize(static_cast<size_t>(bw));
   mean_.resize(static_cast<size_t>(w));
   // A box of patch_px blocks each way: two patch sides, in pixels.
@@ -47,13 +32,7 @@ void ConsensusCue::apply(const cv::Mat1f& disparity, int patch_px, float halving
   float* block_sum = sums_.paddedA();
   float* block_count = sums_.paddedB();
   for (int by = 0; by < bh; ++by) {
-    const int y1 = std::min(2 * by + 1, h - 1);
-    pairOfRows(w, disparity[2 * by], disparity[y1], y1 > 2 * by ? 1.f : 0.f, pair_sum_.data(), pair_count_.data());
-    if (2 * bw > w) pair_sum_[w] = pair_count_[w] = 0.f;  // an odd width's last block has one column
-    for (int bx = 0; bx < bw; ++bx) {
-      block_sum[bx] = pair_sum_[2 * bx] + pair_sum_[2 * bx + 1];
-      block_count[bx] = pair_count_[2 * bx] + pair_count_[2 * bx + 1];
-    }
+    blocks_.row(disparity, by, bw, block_sum, block_count);
     sums_.sumRow(by);
   }
   const float inv_halving_sq = 1.f / (halving * halving);

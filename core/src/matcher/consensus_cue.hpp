@@ -33,7 +33,7 @@ class ConsensusCue {
 
  private:
   BoxSums sums_;                              ///< of the blocks' estimates and of their count
-  std::vector<float> pair_sum_, pair_count_;  ///< two rows' sums, per column
+  BlockEstimates blocks_;                     ///< the estimates in 2 x 2 blocks
   std::vector<float> block_mean_;             ///< a row of the box means, per block
   std::vector<float> mean_;                   ///< the same, per pixel
 };

@@ -3,31 +3,12 @@
 #include <algorithm>
 #include <cmath>
 
-#include "box_sums.hpp"  // addRow, subtractRow
 #include "confidence.hpp"
 #include "patch_kernels.hpp"  // BDIS_ROW_LOOP
 
 namespace bdis {
 namespace detail {
 namespace {
-
-/// The estimates of one row of 2 x 2 blocks of the finest level (rows a and
-/// b, which may be a again), averaged and halved to the coarser level's px;
-/// -1 where the block has none. `bw` blocks, the last one clipped to `w`.
-BDIS_ROW_LOOP
-void blockRow(int w, int bw, const float* __restrict a, const float* __restrict b, float* __restrict out) {
-  for (int bx = 0; bx < bw; ++bx) {
-    const int x0 = 2 * bx, x1 = std::min(2 * bx + 1, w - 1);  // x1 = x0 again at an odd width's end
-    const float d[4] = {a[x0], a[x1], b[x0], b[x1]};
-    float sum = 0.f, count = 0.f;
-    for (float v : d) {
-      const float has = v >= 0.f ? 1.f : 0.f;
-      sum += has * v;
-      count += has;
-    }
-    out[bx] = count > 0.f ? 0.5f * sum / count : -1.f;
-  }
-}
 
 /// What one level row contributes to the fit, per pixel: the weight (1 where
 /// the residual can be read), g, g^2, the residual r, g r and r^2, all 0 where
@@ -135,6 +116,7 @@ void ResidualFitCue::apply(const cv::Mat1f& disparity, const PyramidLevel& coars
   products_.create(kProducts * rows, wc);
   columns_.assign(static_cast<size_t>(kProducts * padded_w), 0.f);  // the padding stays 0
   block_disparity_.resize(static_cast<size_t>(wc));
+  block_count_.resize(static_cast<size_t>(wc));
   block_factor_.resize(static_cast<size_t>(wc));
   factor_.resize(static_cast<size_t>(w));
   auto product_row = [&](int k, int j) { return products_[k * rows + j]; };
@@ -143,7 +125,12 @@ void ResidualFitCue::apply(const cv::Mat1f& disparity, const PyramidLevel& coars
 
   for (int j = 0; j < rows; ++j) {
     const int y = 2 * j;
-    blockRow(w, wc, disparity[2 * y], disparity[std::min(2 * y + 1, h - 1)], block_disparity_.data());
+    // The block's mean estimate, halved to the coarser level's px; -1 where none.
+    blocks_.row(disparity, y, wc, block_disparity_.data(), block_count_.data());
+    for (int x = 0; x < wc; ++x) {
+      const float count = block_count_[static_cast<size_t>(x)];
+      block_disparity_[static_cast<size_t>(x)] = count > 0.f ? 0.5f * block_disparity_[static_cast<size_t>(x)] / count : -1.f;
+    }
     float* out[kProducts];
     for (int k = 0; k < kProducts; ++k) out[k] = product_row(k, j);
     productsRow(wc, block_disparity_.data(), coarser.leftRow(y), coarser.gradientRow(y), coarser.leftValidRow(y),

@@ -17,6 +17,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "box_sums.hpp"
 #include "pyramid.hpp"
 
 namespace bdis {
@@ -47,7 +48,9 @@ class ResidualFitCue {
   enum Product { kWeight, kG, kGG, kR, kGR, kRR, kProducts };
   cv::Mat1f products_;                 ///< kProducts maps of the level, one below the other
   std::vector<float> columns_;         ///< their sums over the box's rows, padded with zeros
-  std::vector<float> block_disparity_;  ///< a row of the blocks' estimates
+  BlockEstimates blocks_;              ///< the estimates in 2 x 2 blocks
+  std::vector<float> block_disparity_;  ///< a row of the blocks' mean estimates
+  std::vector<float> block_count_;     ///< and how many each holds
   std::vector<float> block_factor_;    ///< a row of the blocks' factors
   std::vector<float> factor_;          ///< the same per finest-level pixel
 };
