@@ -36,8 +36,10 @@ constexpr float kMisfitHalvingGrey = kSlantHalvingPx * kStrongTextureGreyPerPx;
 /// confidence halves: a quarter of what its covering patches reach.
 constexpr float kSupportHalvingShare = 0.25f;
 /// Distance of an estimate from the mean of the estimates around it (two
-/// patch sides each way) at which the confidence halves: that of the spread.
-constexpr float kConsensusHalvingPx = kSpreadHalvingPx;
+/// patch sides each way) at which the confidence halves: half the spread's,
+/// as that mean pools many patches, so a smaller step from it already marks
+/// an estimate its surroundings do not share (docs/method.md, "Confidence").
+constexpr float kConsensusHalvingPx = 0.5f * kSpreadHalvingPx;
 /// Disparity change across a patch that the photometric residual of the
 /// estimates still asks for at which the confidence halves: that of the spread.
 constexpr float kResidualSlantHalvingPx = kSpreadHalvingPx;
