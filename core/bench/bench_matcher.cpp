@@ -48,6 +48,10 @@
 #include <string>
 #include <vector>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #if __has_include(<valgrind/callgrind.h>)
 #include <valgrind/callgrind.h>
 #else
@@ -549,9 +553,22 @@ int runOneFrame(const std::string& which, const bdis::MatcherParams& balanced,
   return 0;
 }
 
+/// OpenCV's DIS allocates scratch images in every calc(). glibc gives freed memory at the heap's
+/// top back to the OS, so whether each call pays for fresh pages (about 500 page faults, several
+/// ms on a virtual machine) depended on where earlier allocations happened to sit: the first
+/// sequence timed paid them, the second did not. Keeping freed memory in the process gives every
+/// method its steady-state time, whatever ran before it.
+void keepFreedMemory() {
+#if defined(__GLIBC__)
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's upper limit on 64-bit
+#endif
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  keepFreedMemory();
   try {
     bool table = false, sequences = true, scaling = true;
     int rounds = 5;
