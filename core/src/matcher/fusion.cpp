@@ -16,13 +16,13 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 // Per-row loops: their rows are __restrict parameters, without which GCC
 // gives up vectorising for the possible aliases between outputs and inputs.
 
-/// Fused disparity where any patch survived; 0 elsewhere (the caller fills those).
+/// Fused disparity where any patch survived, else the coarser level's.
 BDIS_ROW_LOOP
-void fusedRow(int n, const float* __restrict num, const float* __restrict den, float* __restrict out) {
+void fusedRow(int n, const float* __restrict num, const float* __restrict den, const float* __restrict coarser,
+              float* __restrict out) {
   for (int x = 0; x < n; ++x) {
     const float d = num[x] / std::max(den[x], std::numeric_limits<float>::min());
-    const float value = den[x] > 0.f ? d : 0.f;
-    out[x] = value;
+    out[x] = den[x] > 0.f ? d : coarser[x];
   }
 }
 
@@ -77,6 +77,18 @@ void carryRows(cv::Mat1f& m, int first, int kept, int width) {
 }
 
 }  // namespace
+
+void coarserLevelRow(const cv::Mat1f& coarse, int y, int width, float* out) {
+  const float* c = coarse[std::min(y / 2, coarse.rows - 1)];
+  // Pixels 2 bx and 2 bx + 1 read block bx; past the map's last column, the last.
+  const int pairs = std::min(coarse.cols, width / 2);
+  for (int bx = 0; bx < pairs; ++bx) {
+    const float value = 2.f * c[bx];
+    out[2 * bx] = value;
+    out[2 * bx + 1] = value;
+  }
+  for (int x = 2 * pairs; x < width; ++x) out[x] = 2.f * c[std::min(x / 2, coarse.cols - 1)];
+}
 
 /// Fusion without a variance: every step a no-op.
 struct Fusion::NoVariance {
@@ -161,6 +173,7 @@ void Fusion::allocate(int band_rows, int max_width, int max_height, bool with_va
   cover_x_.resize(static_cast<size_t>(max_width));
   cover_y_.resize(static_cast<size_t>(max_height));
   fused_row_.resize(static_cast<size_t>(max_width));
+  coarser_row_.resize(static_cast<size_t>(max_width));
   spread_sq_row_.resize(static_cast<size_t>(max_width));
 }
 
@@ -203,12 +216,11 @@ void Fusion::accumulate(const PatchGrid& grid, const std::vector<PatchEstimate>&
   finish(band_top, height);
 }
 
-void Fusion::fusedRowOrCoarse(int width, int by, int y, const cv::Mat1f& coarse, float* out) const {
-  const float* den = den_[by];
-  fusedRow(width, num_[by], den, out);
-  for (int x = 0; x < width; ++x) {
-    if (!(den[x] > 0.f)) out[x] = fromCoarserLevel(coarse, x, y);  // rare
-  }
+void Fusion::fusedRowOrCoarse(int width, int by, int y, const cv::Mat1f& coarse, float* out) {
+  // The holes are not rare (the strip whose matches leave the right view,
+  // dark tissue): a select over the whole row, not a branch per pixel.
+  coarserLevelRow(coarse, y, width, coarser_row_.data());
+  fusedRow(width, num_[by], den_[by], coarser_row_.data(), out);
 }
 
 void Fusion::fuseInitialisation(const PatchGrid& grid, const std::vector<PatchEstimate>& estimates,

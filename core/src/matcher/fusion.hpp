@@ -17,12 +17,11 @@
 namespace bdis {
 namespace detail {
 
-/// Pixel (x, y)'s disparity as the coarser level `coarse` has it: twice the
-/// value at (x / 2, y / 2), clamped to the map. Where no patch reaches a
-/// pixel, or a stage needs a dense start there, this stands in.
-inline float fromCoarserLevel(const cv::Mat1f& coarse, int x, int y) {
-  return 2.f * coarse(std::min(y / 2, coarse.rows - 1), std::min(x / 2, coarse.cols - 1));
-}
+/// Row y's disparity as the coarser level `coarse` has it, pixels 0 ..
+/// width - 1 into `out`: pixel x gets twice the value at (x / 2, y / 2),
+/// clamped to the map. Where no patch reaches a pixel, or a stage needs a
+/// dense start there, this stands in.
+void coarserLevelRow(const cv::Mat1f& coarse, int y, int width, float* out);
 
 /// The finest level's per-pixel results (level resolution).
 struct LevelMaps {
@@ -64,7 +63,7 @@ class Fusion {
                   int height, Variance& variance, FinishRows&& finish);
   /// Row y of the level, band row `by`: the fused disparity where a patch
   /// survived, else twice the coarser level's; into `out`.
-  void fusedRowOrCoarse(int width, int by, int y, const cv::Mat1f& coarse, float* out) const;
+  void fusedRowOrCoarse(int width, int by, int y, const cv::Mat1f& coarse, float* out);
 
   const KernelSet* kernels_ = nullptr;
   int p_ = 0;
@@ -76,6 +75,7 @@ class Fusion {
   cv::Mat1f var_num_, var_den_;          ///< with variance: squared-weight sums
   std::vector<float> cover_x_, cover_y_;  ///< patches covering each column / row of the level
   std::vector<float> fused_row_;         ///< the finest level's fused row before the floor
+  std::vector<float> coarser_row_;       ///< coarserLevelRow of the row being fused
   std::vector<float> spread_sq_row_;     ///< its squared spread
 };
 

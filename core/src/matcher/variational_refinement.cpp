@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "bdis_stereo/matcher.hpp"  // kNoDisparity
-#include "fusion.hpp"               // fromCoarserLevel
+#include "fusion.hpp"               // coarserLevelRow
 #include "patch_kernels.hpp"        // BDIS_ROW_LOOP
 
 namespace bdis {
@@ -214,7 +214,7 @@ void VariationalRefinement::apply(const PyramidLevel& level, const cv::Mat1f& co
   for (int y = 0; y < h; ++y) {
     // Rows 2k and 2k + 1 read the same coarser row.
     if (y % 2 == 0) {
-      for (int x = 0; x < w; ++x) coarser_row[x] = fromCoarserLevel(coarser, x, y);
+      coarserLevelRow(coarser, y, w, coarser_row);
     }
     float* s = start(y);
     startRow(w, disparity[y], coarser_row, s, t(y));
