@@ -8,7 +8,8 @@
 // (support_cue.hpp), where it stands apart from the estimates of its
 // wider neighbourhood (consensus_cue.hpp) and where the images, warped by
 // the estimates, still show a slant they miss or pin their shift only
-// loosely against their own noise (residual_fit_cue.hpp).
+// loosely against their own noise (residual_fit_cue.hpp), and the nearer it
+// lies to a jump between neighbouring estimates (edge_distance_cue.hpp).
 // Measured on generated
 // scenes and the colon sequences, each cue ranks the wrong estimates better
 // than the evidence alone; see docs/method.md for the figures.
@@ -47,6 +48,12 @@ constexpr float kResidualSlantHalvingPx = kSpreadHalvingPx;
 /// with the texture and the residual's noise around it, at which the
 /// confidence halves: that of the spread.
 constexpr float kShiftErrorHalvingPx = kSpreadHalvingPx;
+/// A jump between neighbouring estimates, for the edge distance cue: more
+/// than the outlier threshold (full-resolution px).
+constexpr float kEdgeJumpPx = 2.0f;
+/// Distance from the nearest jump at which the edge distance cue halves the
+/// confidence, in patch sides: the consensus cue's reach.
+constexpr float kEdgeHalvingPatches = 2.0f;
 
 /// The variance of a pixel's disparity, as a standard deviation of its
 /// error should be: a share of the covering patches' window fit (which alone

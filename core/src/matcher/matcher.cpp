@@ -14,6 +14,7 @@
 #include "band_schedule.hpp"
 #include "confidence.hpp"
 #include "consensus_cue.hpp"
+#include "edge_distance_cue.hpp"
 #include "left_right_check.hpp"
 #include "patch_grid.hpp"
 #include "pyramid.hpp"
@@ -85,6 +86,7 @@ struct Matcher::Impl {
   detail::SupportCue support;
   detail::ConsensusCue consensus;
   detail::ResidualFitCue residual_fit;
+  detail::EdgeDistanceCue edge_distance;
   detail::VariationalRefinement refinement;
   detail::Upsampler upsampler;
 
@@ -172,7 +174,10 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
                          detail::kResidualSlantHalvingPx * level_px, detail::kShiftErrorHalvingPx * level_px,
                          out.confidence);
   }
-  // 10. Upsampling to the input resolution.
+  // 10. The edge distance cue: estimates near a jump between neighbours.
+  m.edge_distance.apply(out.disparity, detail::kEdgeJumpPx * level_px,
+                        detail::kEdgeHalvingPatches * static_cast<float>(P.patch_size), out.confidence);
+  // 11. Upsampling to the input resolution.
   m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, outputs.confidence, result);
   if (P.compute_variance && outputs.variance) {
     m.upsampler.upsampleVariance(out, finest, result);
