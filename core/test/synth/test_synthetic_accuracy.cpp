@@ -265,11 +265,14 @@ TEST(SyntheticBehaviour, ConfidenceRanksTheErrors) {
   // holds few, and the sparsification area stays near the oracle's.
   // Measured (bad2 of the most confident 50 %, of each tenth, least
   // confident first; sparsification area, / oracle's):
-  //   instrument     0.0 %: 32.4  1.6  0.0 0.0 0.0 0.0 0.0 0.0 0.0 0.0; 0.0015, 1.71
-  //   tube           1.1 %: 42.7 20.8 14.1 9.4 5.5 2.8 1.5 0.6 0.3 0.1; 0.0219, 4.41
-  //   dark_periphery 0.0 %: 33.7 10.0  3.2 0.5 0.2 0.0 0.0 0.0 0.0 0.0; 0.0042, 3.54
-  //   dark_tube      6.3 %: 60.9 42.0 33.3 28.6 21.0 15.3 9.1 4.7 2.0 0.4; 0.0768, 2.97
-  //   compressed_dark 0.1 %: 54.0 39.8 28.4 13.4 3.3 0.3 0.0 0.0 0.0 0.0; 0.0249, 2.41
+  //   instrument     0.0 %: 32.7  1.3  0.0 0.0 0.0 0.0 0.0 0.0 0.0 0.0; 0.0014, 1.66
+  //   tube           1.1 %: 43.5 19.7 13.3 10.0 5.5 3.4 1.5 0.6 0.3 0.1; 0.0219, 4.42
+  //   dark_periphery 0.0 %: 35.5  9.7  1.9 0.3 0.1 0.0 0.0 0.0 0.0 0.0; 0.0037, 3.15
+  //   dark_tube      5.9 %: 61.3 42.9 32.7 29.1 21.7 14.3 8.7 4.4 1.8 0.4; 0.0755, 2.93
+  //   compressed_dark 0.0 %: 57.3 41.2 26.4 11.9 2.2 0.1 0.0 0.0 0.0 0.0; 0.0232, 2.24
+  // Before the edge distance cue (an estimate near a jump between
+  // neighbours) 1.71, tube 4.48 (area 0.0222), dark periphery 3.29, dark_tube
+  // 6.0 % and 2.97, compressed_dark 2.24.
   // Before the residual fit cues (a slant the estimates miss that the
   // images still show, a shift their texture pins only loosely) 1.76, tube
   // 1.8 % and 5.07 (area 0.0252), dark periphery 4.37, dark_tube 7.4 % and
