@@ -12,7 +12,8 @@
 //       One markdown table (what scripts/bench.sh prints): per synthetic
 //       sequence, the median over all frames (each timed N times, methods
 //       interleaved frame by frame) of the thread CPU time of one compute, for
-//       bdis fast / balanced / accurate and DIS fast, and the ratio to DIS
+//       bdis fast / balanced / balanced without the confidence (what a node
+//       with no confidence subscriber computes) / accurate and DIS fast, and the ratio to DIS
 //       fast; then the same for balanced (searched down to level 1, which
 //       gives the kernels' scaling exponent, and with the finest level as
 //       set, by default from the width) and DIS fast on generated scenes of
@@ -123,11 +124,12 @@ struct Method {
   std::function<void(const cv::Mat& left, const cv::Mat& right)> compute;
 };
 
-Method bdisMethod(const std::string& name, const bdis::MatcherParams& params) {
+Method bdisMethod(const std::string& name, const bdis::MatcherParams& params,
+                  const bdis::MatchOutputs& outputs = bdis::MatchOutputs{}) {
   auto matcher = std::make_shared<bdis::Matcher>(params);
   auto result = std::make_shared<bdis::MatchResult>();
-  return {name, [matcher, result](const cv::Mat& l, const cv::Mat& r) {
-            matcher->compute(l, r, *result);
+  return {name, [matcher, result, outputs](const cv::Mat& l, const cv::Mat& r) {
+            matcher->compute(l, r, *result, outputs);
             benchmark::DoNotOptimize(result->disparity.data);
           }};
 }
@@ -447,8 +449,11 @@ int runTable(int rounds, bool sequences, bool scaling, const bdis::MatcherParams
   const bool modified = bdis::toYaml(balanced) != bdis::toYaml(bdis::MatcherParams{});
   const std::string balanced_name = modified ? "bdis balanced (--set)" : "bdis balanced";
   auto allMethods = [&] {
+    bdis::MatchOutputs disparity_only;
+    disparity_only.confidence = disparity_only.variance = false;
     return std::vector<Method>{bdisMethod("bdis fast", bdis::MatcherParams::preset("fast")),
                                bdisMethod(balanced_name, balanced),
+                               bdisMethod(balanced_name + ", no confidence", balanced, disparity_only),
                                bdisMethod("bdis accurate", bdis::MatcherParams::preset("accurate")),
                                disFastMethod()};
   };

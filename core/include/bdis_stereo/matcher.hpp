@@ -34,8 +34,9 @@ struct MatchResult {
 };
 
 /// Which full-resolution maps compute() fills besides the disparity. A map
-/// left out is released (empty) and costs nothing to upsample: a node computes
-/// only what is subscribed.
+/// left out is released (empty) and costs nothing to upsample, and without the
+/// confidence its cues are not computed either (they change no disparity): a
+/// node computes only what is subscribed.
 struct MatchOutputs {
   bool confidence = true;
   bool variance = true;  ///< only with MatcherParams::compute_variance

@@ -106,6 +106,11 @@ struct Matcher::Impl {
   /// The finest level of both searches, band by band in the order of
   /// scheduleFinestBands; the check's rows are mirrored just before their band.
   void searchFinestLevel(int finest, bool with_check);
+
+  /// The confidence's cues on the finest level's estimates `out`: each
+  /// lowers the confidence where the estimates are in doubt for a reason the
+  /// posteriors cannot see (confidence.hpp).
+  void lowerConfidenceByCues(int finest, detail::LevelMaps& out);
 };
 
 Matcher::Matcher(const MatcherParams& params) : impl_(std::make_unique<Impl>()) { setParams(params); }
@@ -158,32 +163,39 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   }
   // 5. Variational refinement of the estimates the check kept.
   m.refinement.apply(m.pyramid.level(finest), m.left.aboveFinest(), out.disparity);
-  // 6. The slant cue: surfaces too slanted for a patch of one disparity, or
-  //    slanted and so strongly textured that the patch misfits them.
-  m.slant.apply(out.disparity, m.pyramid.level(finest).left_gx, P.patch_size, detail::kSlantHalvingPx * level_px,
-                detail::kMisfitHalvingGrey, out.confidence);
-  // 7. The support cue: estimates among holes.
-  m.support.apply(out.disparity, m.pyramid.level(finest).left_valid, m.pyramid.level(finest).left, P.patch_size, detail::kSupportHalvingShare,
-                  out.confidence);
-  // 8. The consensus cue: estimates that stand apart from their neighbourhood.
-  m.consensus.apply(out.disparity, P.patch_size, detail::kConsensusHalvingPx * level_px, out.confidence);
-  // 9. The residual fit cues: a slant the estimates miss that the images
-  //    still show, and a shift their texture pins only loosely.
-  if (finest + 1 < m.pyramid.numLevels()) {
-    m.residual_fit.apply(out.disparity, m.pyramid.level(finest + 1), P.patch_size,
-                         detail::kResidualSlantHalvingPx * level_px, detail::kShiftErrorHalvingPx * level_px,
-                         out.confidence);
-  }
-  // 10. The edge distance cue: estimates near a jump between neighbours.
-  m.edge_distance.apply(out.disparity, detail::kEdgeJumpPx * level_px,
-                        detail::kEdgeHalvingPatches * static_cast<float>(P.patch_size), out.confidence);
-  // 11. Upsampling to the input resolution.
+  // 6. The confidence's cues, only when the confidence is asked for: they
+  //    change no disparity.
+  if (outputs.confidence) m.lowerConfidenceByCues(finest, out);
+  // 7. Upsampling to the input resolution.
   m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, outputs.confidence, result);
   if (P.compute_variance && outputs.variance) {
     m.upsampler.upsampleVariance(out, finest, result);
   } else {
     result.variance.release();
   }
+}
+
+void Matcher::Impl::lowerConfidenceByCues(int finest, detail::LevelMaps& out) {
+  const detail::PyramidLevel& level = pyramid.level(finest);
+  const int p = resolved.patch_size;
+  const float level_px = 1.f / static_cast<float>(1 << finest);
+  // The slant cue: surfaces too slanted for a patch of one disparity, or
+  // slanted and so strongly textured that the patch misfits them.
+  slant.apply(out.disparity, level.left_gx, p, detail::kSlantHalvingPx * level_px, detail::kMisfitHalvingGrey,
+              out.confidence);
+  // The support cue: estimates among holes.
+  support.apply(out.disparity, level.left_valid, level.left, p, detail::kSupportHalvingShare, out.confidence);
+  // The consensus cue: estimates that stand apart from their neighbourhood.
+  consensus.apply(out.disparity, p, detail::kConsensusHalvingPx * level_px, out.confidence);
+  // The residual fit cues: a slant the estimates miss that the images still
+  // show, and a shift their texture pins only loosely.
+  if (finest + 1 < pyramid.numLevels()) {
+    residual_fit.apply(out.disparity, pyramid.level(finest + 1), p, detail::kResidualSlantHalvingPx * level_px,
+                       detail::kShiftErrorHalvingPx * level_px, out.confidence);
+  }
+  // The edge distance cue: estimates near a jump between neighbours.
+  edge_distance.apply(out.disparity, detail::kEdgeJumpPx * level_px,
+                      detail::kEdgeHalvingPatches * static_cast<float>(p), out.confidence);
 }
 
 void Matcher::Impl::configureFor(int width) {
