@@ -54,7 +54,7 @@ void multiplyRow(int w, const float* __restrict factor, float* __restrict confid
 
 }  // namespace
 
-void EdgeDistanceCue::markBlockRow(const cv::Mat1f& d, int by, float* blocks) {
+void EdgeDistanceCue::markBlockRow(const cv::Mat1f& d, int by, float jump, float* blocks) {
   const int w = d.cols, h = d.rows;
   const int y0 = 2 * by, y1 = y0 + 1;
   unsigned char* left_0 = rows_[kLeft0];
@@ -62,12 +62,12 @@ void EdgeDistanceCue::markBlockRow(const cv::Mat1f& d, int by, float* blocks) {
   unsigned char* between = rows_[kBetween];
   unsigned char* below = rows_[kBelow];
   unsigned char* marks = rows_[kMarks];
-  jumpFlags(w - 1, d[y0], d[y0] + 1, jump_, left_0 + 1);
+  jumpFlags(w - 1, d[y0], d[y0] + 1, jump, left_0 + 1);
   if (y1 < h) {
-    jumpFlags(w - 1, d[y1], d[y1] + 1, jump_, left_1 + 1);
-    jumpFlags(w, d[y0], d[y1], jump_, between);
+    jumpFlags(w - 1, d[y1], d[y1] + 1, jump, left_1 + 1);
+    jumpFlags(w, d[y0], d[y1], jump, between);
   }
-  if (y1 + 1 < h) jumpFlags(w, d[y1], d[y1 + 1], jump_, below);
+  if (y1 + 1 < h) jumpFlags(w, d[y1], d[y1 + 1], jump, below);
   // Pairs beyond the last row: none.
   const size_t row_bytes = static_cast<size_t>(flags_.cols);
   if (y1 >= h) {
@@ -85,7 +85,6 @@ void EdgeDistanceCue::apply(const cv::Mat1f& disparity, float jump, float halvin
   CV_Assert(confidence.size() == disparity.size());
   const int w = disparity.cols, h = disparity.rows;
   const int bw = (w + 1) / 2, bh = (h + 1) / 2;
-  jump_ = jump;
   block_distance_.create(bh, bw);
   // One column more than the row: the shifted pairs' last 0, a last odd block's second pixel.
   flags_.create(kFlagRows, w + 1);
@@ -95,7 +94,7 @@ void EdgeDistanceCue::apply(const cv::Mat1f& disparity, float jump, float halvin
   // Blocks at a jump start at 0, the others far; then the forward pass.
   for (int by = 0; by < bh; ++by) {
     float* row = block_distance_[by];
-    markBlockRow(disparity, by, row);
+    markBlockRow(disparity, by, jump, row);
     if (by > 0) distanceFromRow(bw, block_distance_[by - 1], row);
     for (int bx = 1; bx < bw; ++bx) row[bx] = std::min(row[bx], row[bx - 1] + 1.f);
   }

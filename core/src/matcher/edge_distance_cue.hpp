@@ -28,11 +28,11 @@ class EdgeDistanceCue {
   void apply(const cv::Mat1f& disparity, float jump, float halving, cv::Mat1f& confidence);
 
  private:
-  /// The blocks of block row `by` at a jump (0) or not (far), into `blocks`.
-  void markBlockRow(const cv::Mat1f& disparity, int by, float* blocks);
+  /// The blocks of block row `by` at a jump of more than `jump` (0) or not
+  /// (far), into `blocks`.
+  void markBlockRow(const cv::Mat1f& disparity, int by, float jump, float* blocks);
 
   enum FlagRow { kLeft0, kLeft1, kAbove, kBetween, kBelow, kMarks, kFlagRows };
-  float jump_ = 0.f;
   cv::Mat1f block_distance_;          ///< blocks from the nearest block at a jump
   cv::Mat1b flags_;                   ///< the rows of pair flags and pixel marks
   unsigned char* rows_[kFlagRows] = {};  ///< flags_'s rows, by role (above / below swap)
