@@ -86,6 +86,16 @@ void subtractRow(int w, const float* __restrict row, float* __restrict sum) {
   for (int x = 0; x < w; ++x) sum[x] -= row[x];
 }
 
+BDIS_ROW_LOOP
+void blocksToPixels(int w, const float* __restrict blocks, float* __restrict pixels) {
+  const int pairs = w / 2;
+  for (int bx = 0; bx < pairs; ++bx) {
+    pixels[2 * bx] = blocks[bx];
+    pixels[2 * bx + 1] = blocks[bx];
+  }
+  if (w % 2 != 0) pixels[w - 1] = blocks[pairs];
+}
+
 void BoxSums::begin(int w, int h, int r, bool with_b) {
   w_ = w;
   h_ = h;

@@ -15,6 +15,10 @@ namespace detail {
 void addRow(int w, const float* row, float* sum);
 void subtractRow(int w, const float* row, float* sum);
 
+/// A row of 2 x 2 blocks' values onto the w pixels of a block row: pixel x
+/// gets block x / 2 (w <= 2 bw).
+void blocksToPixels(int w, const float* blocks, float* pixels);
+
 /// The estimates (>= 0; none below) of a finest-level disparity map taken
 /// in 2 x 2 blocks, one block row at a time: per block, their sum and their
 /// count; the last block row and column are clipped to the map. For the cues

@@ -10,6 +10,11 @@ namespace detail {
 namespace {
 
 BDIS_ROW_LOOP
+void meanRow(int w, const float* __restrict sum, const float* __restrict count, float* __restrict mean) {
+  for (int x = 0; x < w; ++x) mean[x] = sum[x] / std::max(count[x], 1.f);
+}
+
+BDIS_ROW_LOOP
 void consensusRow(int w, const float* __restrict mean, const float* __restrict disparity, float inv_halving_sq,
                   float* __restrict confidence) {
   for (int x = 0; x < w; ++x) {
@@ -40,8 +45,8 @@ void ConsensusCue::apply(const cv::Mat1f& disparity, int patch_px, float halving
     const float *box_sum, *box_count;
     sums_.nextColumnSums(by, box_sum, box_count);
     // count >= 1 wherever the block holds an estimate; elsewhere the mean is not read.
-    for (int bx = 0; bx < bw; ++bx) block_mean_[bx] = box_sum[bx] / std::max(box_count[bx], 1.f);
-    for (int x = 0; x < w; ++x) mean_[x] = block_mean_[x / 2];
+    meanRow(bw, box_sum, box_count, block_mean_.data());
+    blocksToPixels(w, block_mean_.data(), mean_.data());
     for (int y = 2 * by; y < std::min(2 * by + 2, h); ++y) {
       consensusRow(w, mean_.data(), disparity[y], inv_halving_sq, confidence[y]);
     }

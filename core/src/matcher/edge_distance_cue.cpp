@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "box_sums.hpp"       // blocksToPixels
 #include "patch_kernels.hpp"  // BDIS_ROW_LOOP
 
 namespace bdis {
@@ -40,10 +41,10 @@ void distanceFromRow(int n, const float* __restrict other, float* __restrict row
 }
 
 BDIS_ROW_LOOP
-void factorRow(int w, const float* __restrict blocks, float halving, float* __restrict factor) {
-  for (int x = 0; x < w; ++x) {
-    const float distance = 2.f * blocks[x / 2] + 0.5f;  // level px
-    factor[x] = distance / (distance + halving);
+void factorRow(int bw, const float* __restrict blocks, float halving, float* __restrict factor) {
+  for (int bx = 0; bx < bw; ++bx) {
+    const float distance = 2.f * blocks[bx] + 0.5f;  // level px
+    factor[bx] = distance / (distance + halving);
   }
 }
 
@@ -90,6 +91,7 @@ void EdgeDistanceCue::apply(const cv::Mat1f& disparity, float jump, float halvin
   flags_.create(kFlagRows, w + 1);
   std::memset(flags_.data, 0, flags_.total());  // (Mat::setTo allocates at some widths)
   for (int r = 0; r < kFlagRows; ++r) rows_[r] = flags_[r];
+  block_factor_.resize(static_cast<size_t>(bw));
   factor_.resize(static_cast<size_t>(w));
   // Blocks at a jump start at 0, the others far; then the forward pass.
   for (int by = 0; by < bh; ++by) {
@@ -103,7 +105,8 @@ void EdgeDistanceCue::apply(const cv::Mat1f& disparity, float jump, float halvin
     float* row = block_distance_[by];
     if (by + 1 < bh) distanceFromRow(bw, block_distance_[by + 1], row);
     for (int bx = bw - 2; bx >= 0; --bx) row[bx] = std::min(row[bx], row[bx + 1] + 1.f);
-    factorRow(w, row, halving, factor_.data());
+    factorRow(bw, row, halving, block_factor_.data());
+    blocksToPixels(w, block_factor_.data(), factor_.data());
     for (int y = 2 * by; y < std::min(2 * by + 2, h); ++y) multiplyRow(w, factor_.data(), confidence[y]);
   }
 }

@@ -36,7 +36,8 @@ class EdgeDistanceCue {
   cv::Mat1f block_distance_;          ///< blocks from the nearest block at a jump
   cv::Mat1b flags_;                   ///< the rows of pair flags and pixel marks
   unsigned char* rows_[kFlagRows] = {};  ///< flags_'s rows, by role (above / below swap)
-  std::vector<float> factor_;         ///< a row of the pixels' factors
+  std::vector<float> block_factor_;   ///< a row of the blocks' factors
+  std::vector<float> factor_;         ///< the same per pixel
 };
 
 }  // namespace detail

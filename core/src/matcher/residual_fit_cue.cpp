@@ -10,6 +10,13 @@ namespace bdis {
 namespace detail {
 namespace {
 
+/// sum[x] / count[x] / 2 in place (a finest-level mean in the coarser
+/// level's px); -1 where the count is 0.
+BDIS_ROW_LOOP
+void halvedMeanRow(int w, const float* __restrict count, float* __restrict sum) {
+  for (int x = 0; x < w; ++x) sum[x] = count[x] > 0.f ? 0.5f * sum[x] / count[x] : -1.f;
+}
+
 /// What one level row contributes to the fit, per pixel: the weight (1 where
 /// the residual can be read), g, g^2, the residual r, g r and r^2, all 0 where
 /// it cannot: no estimate, an invalid left pixel, a match column outside
@@ -127,10 +134,7 @@ void ResidualFitCue::apply(const cv::Mat1f& disparity, const PyramidLevel& coars
     const int y = 2 * j;
     // The block's mean estimate, halved to the coarser level's px; -1 where none.
     blocks_.row(disparity, y, wc, block_disparity_.data(), block_count_.data());
-    for (int x = 0; x < wc; ++x) {
-      const float count = block_count_[static_cast<size_t>(x)];
-      block_disparity_[static_cast<size_t>(x)] = count > 0.f ? 0.5f * block_disparity_[static_cast<size_t>(x)] / count : -1.f;
-    }
+    halvedMeanRow(wc, block_count_.data(), block_disparity_.data());
     float* out[kProducts];
     for (int k = 0; k < kProducts; ++k) out[k] = product_row(k, j);
     productsRow(wc, block_disparity_.data(), coarser.leftRow(y), coarser.gradientRow(y), coarser.leftValidRow(y),
@@ -167,7 +171,9 @@ void ResidualFitCue::apply(const cv::Mat1f& disparity, const PyramidLevel& coars
       factorRow<0>(wc, r, padded_columns, min_count, static_cast<float>(patch_px), inv_slant_halving_sq,
                    footprint_scale, inv_error_halving_sq, block_factor_.data());
     }
-    for (int x = 0; x < w; ++x) factor_[static_cast<size_t>(x)] = block_factor_[static_cast<size_t>(std::min(x / 2, wc - 1))];
+    // Columns past the last whole block repeat the last block.
+    blocksToPixels(std::min(w, 2 * wc), block_factor_.data(), factor_.data());
+    std::fill(factor_.begin() + std::min(w, 2 * wc), factor_.end(), block_factor_[static_cast<size_t>(wc - 1)]);
     // Sampled row j serves coarser rows 2j and 2j + 1, finest rows 4j to
     // 4j + 3; the last one also the rows a floor-halved height left over.
     const int yf_end = j + 1 == rows ? h : std::min(4 * j + 4, h);

@@ -15,6 +15,21 @@ void meanRow(int w, const float* __restrict sum, const float* __restrict count, 
   for (int x = 0; x < w; ++x) mean[x] = count[x] > 0.5f ? sum[x] / std::max(count[x], 1.f) : kNoDisparity;
 }
 
+/// The box sums' inputs of one row: each estimate, 0 where none, and 1
+/// where there is one.
+BDIS_ROW_LOOP
+void estimateRows(int w, const float* __restrict disparity, float* __restrict value, float* __restrict count) {
+  for (int x = 0; x < w; ++x) {
+    value[x] = disparity[x] >= 0.f ? disparity[x] : 0.f;
+    count[x] = disparity[x] >= 0.f ? 1.f : 0.f;
+  }
+}
+
+BDIS_ROW_LOOP
+void squaredRow(int w, const float* __restrict values, float* __restrict squares) {
+  for (int x = 0; x < w; ++x) squares[x] = values[x] * values[x];
+}
+
 /// The derivative along one axis from the values `step` before and after:
 /// central where both exist, one-sided against the centre where one does,
 /// 0 where neither does. Branch-free.
@@ -68,11 +83,7 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
   float* value = sums_.paddedA();
   float* count = sums_.paddedB();
   for (int y = 0; y < h; ++y) {
-    const float* d = disparity[y];
-    for (int x = 0; x < w; ++x) {
-      value[x] = d[x] >= 0.f ? d[x] : 0.f;
-      count[x] = d[x] >= 0.f ? 1.f : 0.f;
-    }
+    estimateRows(w, disparity[y], value, count);
     sums_.sumRow(y);
   }
   for (int y = 0; y < h; ++y) {
@@ -88,8 +99,7 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
   box_columns_.resize(static_cast<size_t>(w));
   for (int x = 0; x < w; ++x) box_columns_[static_cast<size_t>(x)] = clippedSpan(x, w, r);
   for (int y = 0; y < h; ++y) {
-    const float* g = gradient[y];
-    for (int x = 0; x < w; ++x) gradient_sq[x] = g[x] * g[x];
+    squaredRow(w, gradient[y], gradient_sq);
     gradient_sums_.sumRow(y);
   }
 

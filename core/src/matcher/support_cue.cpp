@@ -15,6 +15,17 @@ namespace {
 // such pixels and valid ones. Mid-grey tells the two kinds apart.
 constexpr float kBrightInvalidGrey = 128.f;
 
+/// The two rows the box sums count: 1 where a pixel has an estimate, and 1
+/// where it could have had one (valid, or invalid but bright: clipped).
+BDIS_ROW_LOOP
+void indicatorRows(int w, const float* __restrict disparity, const uchar* __restrict valid,
+                   const float* __restrict grey, float* __restrict estimates, float* __restrict valid_pixels) {
+  for (int x = 0; x < w; ++x) {
+    estimates[x] = disparity[x] >= 0.f ? 1.f : 0.f;
+    valid_pixels[x] = (valid[x] != 0) | (grey[x] >= kBrightInvalidGrey) ? 1.f : 0.f;  // | : no branch
+  }
+}
+
 BDIS_ROW_LOOP
 void supportRow(int w, const float* __restrict estimates, const float* __restrict valid,
                 const float* __restrict disparity, float inv_halving_sq, float* __restrict confidence) {
@@ -35,13 +46,7 @@ void SupportCue::apply(const cv::Mat1f& disparity, const cv::Mat1b& valid, const
   float* estimates = sums_.paddedA();
   float* valid_pixels = sums_.paddedB();
   for (int y = 0; y < h; ++y) {
-    const float* d = disparity[y];
-    const uchar* v = valid[y];
-    const float* g = grey[y];
-    for (int x = 0; x < w; ++x) {
-      estimates[x] = d[x] >= 0.f ? 1.f : 0.f;
-      valid_pixels[x] = v[x] || g[x] >= kBrightInvalidGrey ? 1.f : 0.f;
-    }
+    indicatorRows(w, disparity[y], valid[y], grey[y], estimates, valid_pixels);
     sums_.sumRow(y);
   }
   const float inv_halving_sq = 1.f / (halving_share * halving_share);
