@@ -40,6 +40,10 @@ void PatchSearch::beginLevel(const PyramidLevel& L, int stride, const PyramidLev
 }
 
 void PatchSearch::searchBand(const PyramidLevel& L, const cv::Mat1f& coarse, int top, int bottom) {
+  // The masks behind the kept validity bands may differ from the last band's
+  // (another level, frame or mirrored band): only the two passes below share them.
+  cost_.forgetBands();
+  coarser_cost_.forgetBands();
   forwardPass(L, coarse, top, bottom);
   backwardPass(L, coarse, top, bottom);
 }

@@ -47,18 +47,38 @@ void PatchCost::allocate(int max_width) {
   row_buf_.resize(static_cast<size_t>(p_ + max_window_span + 2));
   window_sum_.resize(window);
   window_sq_.resize(window);
-  band_.left_prefix.resize(static_cast<size_t>(max_width) + 1);
-  band_.right_prefix.resize(static_cast<size_t>(max_width) + 1);
-  band_.column_count.resize(static_cast<size_t>(max_width));
+  const size_t prefix_len = static_cast<size_t>(max_width) + 1;
+  kept_prefix_.resize(2 * kKeptBands * prefix_len);
+  kept_.resize(kKeptBands);
+  for (size_t i = 0; i < kept_.size(); ++i) {
+    kept_[i].left_prefix = kept_prefix_.data() + 2 * i * prefix_len;
+    kept_[i].right_prefix = kept_[i].left_prefix + prefix_len;
+  }
+  column_count_.resize(static_cast<size_t>(max_width));
+  forgetBands();
+}
+
+void PatchCost::forgetBands() {
+  for (ValidityBand& band : kept_) band.y0 = -1;
+  next_kept_ = 0;
+  band_.y0 = -1;
 }
 
 void PatchCost::loadBand(const PyramidLevel& L, int y0) {
-  band_.left_all_valid = L.left_all_valid ||
-      !bandPrefix(L.leftValidRow(y0), L.left_valid.step1(), L.width, p_, band_.column_count.data(),
-                  band_.left_prefix.data());
-  band_.right_all_valid = L.right_all_valid ||
-      !bandPrefix(L.rightValidRow(y0), L.right_valid.step1(), L.width, p_, band_.column_count.data(),
-                  band_.right_prefix.data());
+  for (const ValidityBand& band : kept_) {
+    if (band.y0 == y0) {
+      band_ = band;
+      return;
+    }
+  }
+  ValidityBand& band = kept_[static_cast<size_t>(next_kept_)];
+  next_kept_ = (next_kept_ + 1) % kKeptBands;
+  band.y0 = y0;
+  band.left_all_valid = L.left_all_valid ||
+      !bandPrefix(L.leftValidRow(y0), L.left_valid.step1(), L.width, p_, column_count_.data(), band.left_prefix);
+  band.right_all_valid = L.right_all_valid ||
+      !bandPrefix(L.rightValidRow(y0), L.right_valid.step1(), L.width, p_, column_count_.data(), band.right_prefix);
+  band_ = band;
 }
 
 void PatchCost::setPatch(const PyramidLevel& L, int x0, int y0, bool left_all_valid,

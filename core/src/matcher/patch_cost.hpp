@@ -23,8 +23,13 @@ class PatchCost {
   void allocate(int max_width);
 
   /// Makes the validity band describe level rows y0 .. y0 + p - 1 of L: the
-  /// patch row that the following patches lie in.
+  /// patch row that the following patches lie in. The bands of the last
+  /// kKeptBands rows loaded since forgetBands() are kept and reused: the
+  /// backward pass revisits the patch rows its forward pass loaded.
   void loadBand(const PyramidLevel& L, int y0);
+  /// Drops the kept bands: call before loading bands of another level or
+  /// frame (the masks behind them may have changed).
+  void forgetBands();
   /// Invalid left pixels of the band's patch at column x0.
   int leftInvalid(int x0) const { return band_.leftInvalid(x0, x0 + p_); }
   /// Makes the patch at (x0, y0) of L current. `constants` are its template
@@ -80,8 +85,9 @@ class PatchCost {
   /// query of the search, which asks only about the rows of its patch row,
   /// and writes no level-sized integral images (4 MB per pair at 1920x1080).
   struct ValidityBand {
-    std::vector<int> left_prefix, right_prefix;
-    std::vector<uchar> column_count;  ///< scratch: invalid pixels of each column of the band
+    int y0 = -1;  ///< the band's first level row; -1: none
+    int* left_prefix = nullptr;
+    int* right_prefix = nullptr;
     bool left_all_valid = false, right_all_valid = false;
     int leftInvalid(int lo, int hi) const { return left_all_valid ? 0 : left_prefix[hi] - left_prefix[lo]; }
     int rightInvalid(int lo, int hi) const { return right_all_valid ? 0 : right_prefix[hi] - right_prefix[lo]; }
@@ -103,7 +109,13 @@ class PatchCost {
   int window_half_width_ = 2;
   float window_step_ = 1.f;
   CurrentPatch cur_;
-  ValidityBand band_;
+  /// Patch rows a band of the search holds by default (search_band_rows).
+  static constexpr int kKeptBands = 8;
+  std::vector<ValidityBand> kept_;  ///< kKeptBands bands, each with its own prefix rows
+  std::vector<int> kept_prefix_;    ///< storage of the kept bands' prefix rows
+  std::vector<uchar> column_count_; ///< scratch: invalid pixels of each column of a band
+  int next_kept_ = 0;               ///< the slot the next band not kept goes to
+  ValidityBand band_;               ///< the current band (a copy of its slot)
   std::vector<float> row_buf_, window_sum_, window_sq_;  ///< window_costs kernel scratch
 };
 

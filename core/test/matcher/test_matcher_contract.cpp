@@ -338,6 +338,32 @@ TEST(MatcherReuse, RepeatedAndInterleavedSizesGiveIdenticalResults) {
   EXPECT_TRUE(identical(reused.variance, first.variance));
 }
 
+// The search keeps the validity of each patch row's band for its backward
+// pass: frames whose invalid pixels (black borders, clipped highlights) lie
+// elsewhere, one after the other, each give a fresh matcher's result.
+TEST(MatcherReuse, FramesWithInvalidPixelsElsewhereGiveFreshResults) {
+  MatcherParams params;
+  params.compute_variance = true;
+  StereoPair a = texturedPair(kW, kH, {7.3, 0.0}, 4);
+  StereoPair b = texturedPair(kW, kH, {7.3, 0.0}, 5);
+  a.left.colRange(0, 30).setTo(0);
+  a.right.colRange(0, 30).setTo(0);
+  b.left(cv::Rect(kW / 3, kH / 4, kW / 5, kH / 3)).setTo(255);
+  b.right(cv::Rect(kW / 3 - 20, kH / 4 + 8, kW / 5, kH / 3)).setTo(255);
+  b.right.colRange(kW - 25, kW).setTo(0);
+  const MatchResult fresh_a = run(params, a.left, a.right);
+  const MatchResult fresh_b = run(params, b.left, b.right);
+  Matcher m(params);
+  MatchResult r;
+  for (const StereoPair* pair : {&a, &b, &a, &b}) {
+    m.compute(pair->left, pair->right, r);
+    const MatchResult& fresh = pair == &a ? fresh_a : fresh_b;
+    EXPECT_TRUE(identical(r.disparity, fresh.disparity));
+    EXPECT_TRUE(identical(r.confidence, fresh.confidence));
+    EXPECT_TRUE(identical(r.variance, fresh.variance));
+  }
+}
+
 // A 1920 px frame is searched with a smaller patch than a 640 px one
 // (MatcherParams::patchSizeFor): one matcher switched between the two gives
 // what a fresh matcher gives, and the HD result is the one of that patch size
