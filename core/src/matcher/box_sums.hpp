@@ -16,7 +16,7 @@ void addRow(int w, const float* row, float* sum);
 void subtractRow(int w, const float* row, float* sum);
 
 /// A row of 2 x 2 blocks' values onto the w pixels of a block row: pixel x
-/// gets block x / 2 (w <= 2 bw).
+/// gets block x / 2 (`blocks` holds at least (w + 1) / 2 values).
 void blocksToPixels(int w, const float* blocks, float* pixels);
 
 /// The estimates (>= 0; none below) of a finest-level disparity map taken
