@@ -2,7 +2,8 @@
 
 #include <algorithm>
 
-#include "patch_kernels.hpp"  // BDIS_ROW_LOOP
+#include "bdis_stereo/matcher.hpp"  // kNoDisparity
+#include "patch_kernels.hpp"        // BDIS_ROW_LOOP
 
 namespace bdis {
 namespace detail {
@@ -84,6 +85,11 @@ void addRow(int w, const float* __restrict row, float* __restrict sum) {
 BDIS_ROW_LOOP
 void subtractRow(int w, const float* __restrict row, float* __restrict sum) {
   for (int x = 0; x < w; ++x) sum[x] -= row[x];
+}
+
+BDIS_ROW_LOOP
+void boxMeanRow(int w, const float* __restrict sum, const float* __restrict count, float* __restrict mean) {
+  for (int x = 0; x < w; ++x) mean[x] = count[x] > 0.5f ? sum[x] / std::max(count[x], 1.f) : kNoDisparity;
 }
 
 BDIS_ROW_LOOP

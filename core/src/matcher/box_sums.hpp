@@ -15,6 +15,10 @@ namespace detail {
 void addRow(int w, const float* row, float* sum);
 void subtractRow(int w, const float* row, float* sum);
 
+/// mean[x] = sum[x] / count[x] where a box holds an estimate (count >= 1),
+/// kNoDisparity where it holds none.
+void boxMeanRow(int w, const float* sum, const float* count, float* mean);
+
 /// A row of 2 x 2 blocks' values onto the w pixels of a block row: pixel x
 /// gets block x / 2 (`blocks` holds at least (w + 1) / 2 values).
 void blocksToPixels(int w, const float* blocks, float* pixels);

@@ -10,11 +10,6 @@ namespace detail {
 namespace {
 
 BDIS_ROW_LOOP
-void meanRow(int w, const float* __restrict sum, const float* __restrict count, float* __restrict mean) {
-  for (int x = 0; x < w; ++x) mean[x] = sum[x] / std::max(count[x], 1.f);
-}
-
-BDIS_ROW_LOOP
 void consensusRow(int w, const float* __restrict mean, const float* __restrict disparity, float inv_halving_sq,
                   float* __restrict confidence) {
   for (int x = 0; x < w; ++x) {
@@ -45,7 +40,7 @@ void ConsensusCue::apply(const cv::Mat1f& disparity, int patch_px, float halving
     const float *box_sum, *box_count;
     sums_.nextColumnSums(by, box_sum, box_count);
     // count >= 1 wherever the block holds an estimate; elsewhere the mean is not read.
-    meanRow(bw, box_sum, box_count, block_mean_.data());
+    boxMeanRow(bw, box_sum, box_count, block_mean_.data());
     blocksToPixels(w, block_mean_.data(), mean_.data());
     for (int y = 2 * by; y < std::min(2 * by + 2, h); ++y) {
       consensusRow(w, mean_.data(), disparity[y], inv_halving_sq, confidence[y]);

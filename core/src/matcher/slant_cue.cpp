@@ -10,11 +10,6 @@ namespace bdis {
 namespace detail {
 namespace {
 
-BDIS_ROW_LOOP
-void meanRow(int w, const float* __restrict sum, const float* __restrict count, float* __restrict mean) {
-  for (int x = 0; x < w; ++x) mean[x] = count[x] > 0.5f ? sum[x] / std::max(count[x], 1.f) : kNoDisparity;
-}
-
 /// The box sums' inputs of one row: each estimate, 0 where none, and 1
 /// where there is one.
 BDIS_ROW_LOOP
@@ -89,7 +84,7 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
   for (int y = 0; y < h; ++y) {
     const float *sum, *n;
     sums_.nextColumnSums(y, sum, n);
-    meanRow(w, sum, n, mean_[y] + r);
+    boxMeanRow(w, sum, n, mean_[y] + r);
   }
 
   // The box sums of the squared gradient; the clipped box's area is
