@@ -198,19 +198,19 @@ void VariationalRefinement::apply(const PyramidLevel& level, const cv::Mat1f& co
   if (iterations_ <= 0) return;
   const int h = disparity.rows, w = disparity.cols;
   if (w < 2 || h < 2) return;
-  for (cv::Mat1f* m : {&difference_, &ix_, &ixx_, &ixz_, &norm_, &norm_x_, &diagonal_, &rhs_}) m->create(h, w);
   start_.create(h, w + 2);
   increment_.create(h + 2, w + 2);  // a border of 0 the SOR reads past the ends
-  weight_right_.create(h, w + 1);
-  weight_down_.create(h + 1, w);
-  scratch_.create(6, w);
+  data_rows_.create(kDataRows, w);
+  system_rows_.create(2 * kRingRows, w);
+  weight_right_.create(kRingRows, w + 1);
+  weight_down_.create(kRingRows, w);
+  scratch_.create(kScratchRows, w);
   match_index_.create(1, w);
   std::fill(increment_[0], increment_[0] + w + 2, 0.f);
   std::fill(increment_[h + 1], increment_[h + 1] + w + 2, 0.f);
-  std::fill(weight_down_[0], weight_down_[0] + w, 0.f);
   // The holes start from the coarser level's dense disparity, as the
   // fusion's initialisation reads it.
-  float* coarser_row = scratch_.ptr<float>();
+  float* coarser_row = scratch_[0];
   for (int y = 0; y < h; ++y) {
     // Rows 2k and 2k + 1 read the same coarser row.
     if (y % 2 == 0) {
@@ -222,13 +222,11 @@ void VariationalRefinement::apply(const PyramidLevel& level, const cv::Mat1f& co
     s[w] = s[w - 1];
     t(y)[-1] = t(y)[w] = 0.f;
   }
-  prepareDataTerm(level);
-  for (int k = 0; k < iterations_; ++k) fixedPointStep();
-  for (int y = 0; y < h; ++y) refinedRow(w, start(y), t(y), disparity[y]);
+  for (int k = 0; k < iterations_; ++k) fixedPointStep(level, k + 1 == iterations_ ? &disparity : nullptr);
 }
 
-void VariationalRefinement::prepareDataTerm(const PyramidLevel& level) {
-  const int h = start_.rows, w = start_.cols - 2;
+void VariationalRefinement::prepareDataTermRow(const PyramidLevel& level, int y) {
+  const int w = start_.cols - 2;
   float* fraction = scratch_[0];
   float* first = scratch_[1];
   float* second = scratch_[2];
@@ -236,44 +234,55 @@ void VariationalRefinement::prepareDataTerm(const PyramidLevel& level) {
   float* average = scratch_[4];
   float* data = scratch_[5];
   int* index = match_index_.ptr<int>();
-  for (int y = 0; y < h; ++y) {
-    matchPositionRow(w, start(y), index, fraction);
-    gatherRow(w, index, level.rightRow(y), level.rightValidRow(y), level.leftValidRow(y), first, second,
-              both_valid);
-    warpRow(w, level.leftRow(y), fraction, first, second, both_valid, average, difference_[y], data);
-    dataTermRow(w, average, difference_[y], data, ix_[y], ixx_[y], ixz_[y], norm_[y], norm_x_[y]);
-  }
+  matchPositionRow(w, start(y), index, fraction);
+  gatherRow(w, index, level.rightRow(y), level.rightValidRow(y), level.leftValidRow(y), first, second, both_valid);
+  warpRow(w, level.leftRow(y), fraction, first, second, both_valid, average, data_rows_[kDifference], data);
+  dataTermRow(w, average, data_rows_[kDifference], data, data_rows_[kIx], data_rows_[kIxx], data_rows_[kIxz],
+               data_rows_[kNorm], data_rows_[kNormX]);
 }
 
-void VariationalRefinement::fixedPointStep() {
+void VariationalRefinement::fixedPointStep(const PyramidLevel& level, cv::Mat1f* refined) {
   const int h = start_.rows, w = start_.cols - 2;
   const float half_alpha = 0.5f * smoothness_;
-  // Row y + 1 of weight_down_ links level rows y and y + 1; rows 0 and h
-  // (no link above the first row or below the last) stay 0.
-  for (int y = 0; y < h; ++y) {
-    const bool has_below = y + 1 < h;
-    smoothnessRow(w, half_alpha, start(y), t(y), has_below ? start(y + 1) : nullptr, has_below ? t(y + 1) : nullptr,
-                  weight_right_[y], weight_down_[y + 1]);
-  }
-  for (int y = 0; y < h; ++y) {
-    systemRow(w, ix_[y], difference_[y], norm_[y], ixx_[y], ixz_[y], norm_x_[y], t(y), weight_right_[y],
-              weight_down_[y], weight_down_[y + 1], start(y), start(std::max(y - 1, 0)),
-              start(std::min(y + 1, h - 1)), diagonal_[y], rhs_[y]);
-  }
+  // Ring rows: row y of the level's system and links sits in slot y % kRingRows.
+  auto slot = [](int y) { return y & (kRingRows - 1); };
+  auto inv_diagonal = [&](int y) { return system_rows_[slot(y)]; };
+  auto rhs = [&](int y) { return system_rows_[kRingRows + slot(y)]; };
+  auto right = [&](int y) { return weight_right_[slot(y)]; };
+  // down(y) links rows y - 1 and y; down(0) and down(h) are 0.
+  auto down = [&](int y) { return weight_down_[slot(y)]; };
+  std::fill(down(0), down(0) + w, 0.f);
   // Red-black SOR: each half-sweep (stage) moves one colour from the other
   // colour's values of the stage before, so the order of the rows inside a
   // stage does not matter. The stages run as a wavefront, stage k on row
   // step - k, each row after the rows it reads: every sweep in one pass over
   // the rows while they are in cache, with the same result as stage after
-  // stage over the whole level.
+  // stage over the whole level. Row `step` gets its data term, links and
+  // system just before its first stage: they read the increment before the
+  // step, which no stage has touched on rows step and below, and the ring
+  // holds the rows the stages still read (kStages + 1 of them).
   constexpr int kStages = 2 * kSweeps;
+  static_assert(kRingRows >= kStages + 2, "the ring holds every row the stages read");
   for (int step = 0; step < h + kStages - 1; ++step) {
+    if (step < h) {
+      const int y = step;
+      const bool has_below = y + 1 < h;
+      smoothnessRow(w, half_alpha, start(y), t(y), has_below ? start(y + 1) : nullptr, has_below ? t(y + 1) : nullptr,
+                    right(y), down(y + 1));
+      prepareDataTermRow(level, y);
+      systemRow(w, data_rows_[kIx], data_rows_[kDifference], data_rows_[kNorm], data_rows_[kIxx], data_rows_[kIxz],
+                data_rows_[kNormX], t(y), right(y), down(y), down(y + 1), start(y), start(std::max(y - 1, 0)),
+                start(std::min(y + 1, h - 1)), inv_diagonal(y), rhs(y));
+    }
     for (int k = 0; k < kStages; ++k) {
       const int y = step - k;
       if (y < 0 || y >= h) continue;
-      sorRow(w, (y + k) & 1, weight_right_[y], weight_down_[y], weight_down_[y + 1], rhs_[y], diagonal_[y], t(y - 1),
-             t(y + 1), t(y), scratch_[0]);
+      sorRow(w, (y + k) & 1, right(y), down(y), down(y + 1), rhs(y), inv_diagonal(y), t(y - 1), t(y + 1), t(y),
+             scratch_[0]);
     }
+    // The last stage has finished its row: with it, the rows above it are final too.
+    const int done = step - (kStages - 1);
+    if (refined && done >= 0) refinedRow(w, start(done), t(done), (*refined)[done]);
   }
 }
 

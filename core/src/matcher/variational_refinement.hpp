@@ -34,11 +34,13 @@ class VariationalRefinement {
   void apply(const PyramidLevel& level, const cv::Mat1f& coarser, cv::Mat1f& disparity);
 
  private:
-  /// The warp by the start and the coefficients the data term reads.
-  void prepareDataTerm(const PyramidLevel& level);
-  /// One fixed-point step: the system's diagonal and right-hand side from
-  /// the current increment, then the SOR sweeps.
-  void fixedPointStep();
+  /// The warp of level row `y` by the start and the coefficients its data
+  /// term reads, into data_rows_.
+  void prepareDataTermRow(const PyramidLevel& level, int y);
+  /// One fixed-point step, row by row: each row's data term, smoothness
+  /// links and system from the current increment, then the SOR sweeps; on
+  /// the last step (`refined` not null) the refined estimates into it.
+  void fixedPointStep(const PyramidLevel& level, cv::Mat1f* refined);
 
   int iterations_ = 0;
   float smoothness_ = 20.f;
@@ -50,16 +52,23 @@ class VariationalRefinement {
   /// of one 0 all round, row y of the level at t(y).
   cv::Mat1f increment_;
   float* t(int y) { return increment_[y + 1] + 1; }
-  /// The data term: the right image warped by the start minus the left
-  /// (difference_), the x derivatives of their average (ix_, ixx_) and of
-  /// the difference (ixz_), and the normalisations, 0 where the pixel or its
-  /// match is invalid.
-  cv::Mat1f difference_, ix_, ixx_, ixz_, norm_, norm_x_;
-  cv::Mat1f diagonal_, rhs_;  ///< the linear system (diagonal_ inverted for the sweeps)
-  /// Smoothness links: weight_right_(y, x + 1) links (x, y) to (x + 1, y),
-  /// column 0 and w are 0; weight_down_(y + 1, x) links (x, y) to (x, y + 1),
-  /// rows 0 and h are 0.
+  /// One row's data term: the right image warped by the start minus the
+  /// left (kDifference), the x derivatives of their average (kIx, kIxx) and
+  /// of the difference (kIxz), and the normalisations, 0 where the pixel or
+  /// its match is invalid. Recomputed each step: the start does not change,
+  /// and a row in cache is cheaper than six level-sized planes read back.
+  enum DataRow { kDifference, kIx, kIxx, kIxz, kNorm, kNormX, kDataRows };
+  cv::Mat1f data_rows_;
+  /// The rows the SOR wavefront still reads, level row y in slot
+  /// y % kRingRows: the system (the diagonal inverted, then the right-hand
+  /// side) and the smoothness links. weight_right_ slot of y, column x + 1
+  /// links (x, y) to (x + 1, y), columns 0 and w are 0; weight_down_ slot of
+  /// y + 1 links (x, y) to (x, y + 1), 0 above the first row and below the
+  /// last.
+  static constexpr int kRingRows = 8;
+  cv::Mat1f system_rows_;
   cv::Mat1f weight_right_, weight_down_;
+  static constexpr int kScratchRows = 6;
   cv::Mat1f scratch_;      ///< rows for one level row: the coarser level upsampled; the warp's
   cv::Mat1i match_index_;  ///< the warp's right pixel per level pixel, one row
 };
