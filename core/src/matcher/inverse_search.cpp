@@ -19,11 +19,11 @@ void PatchSearch::configure(const MatcherParams& params) {
   posterior_.contrast_share = params.contrast_share;
   posterior_.variance = params.compute_variance;
   cost_.configure(kernelsFor(p_, bestKernelIsa()), p_, params.mean_normalization,
-                  params.window_half_width, params.window_step);
+                  params.window_half_width, params.window_step, params.search_band_rows);
   coarser_posterior_ = posterior_;
   coarser_posterior_.step = 0.5f * params.window_step;
   coarser_cost_.configure(kernelsFor(p_, bestKernelIsa()), p_, params.mean_normalization,
-                          params.window_half_width, coarser_posterior_.step);
+                          params.window_half_width, coarser_posterior_.step, params.search_band_rows);
 }
 
 void PatchSearch::beginLevel(const PyramidLevel& L, int stride, const PyramidLevel* coarser, float max_change) {

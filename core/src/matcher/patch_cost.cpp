@@ -32,7 +32,8 @@ size_t rowStride(const cv::Mat1f& m) { return m.step1(); }
 }  // namespace
 
 void PatchCost::configure(const KernelSet& kernels, int patch_size, bool mean_normalization,
-                          int window_half_width, float window_step) {
+                          int window_half_width, float window_step, int band_rows) {
+  kept_bands_ = band_rows > 0 ? std::min(band_rows, kMaxKeptBands) : kMaxKeptBands;
   kernels_ = &kernels;
   p_ = patch_size;
   mean_normalization_ = mean_normalization;
@@ -48,8 +49,8 @@ void PatchCost::allocate(int max_width) {
   window_sum_.resize(window);
   window_sq_.resize(window);
   const size_t prefix_len = static_cast<size_t>(max_width) + 1;
-  kept_prefix_.resize(2 * kKeptBands * prefix_len);
-  kept_.resize(kKeptBands);
+  kept_prefix_.resize(2 * static_cast<size_t>(kept_bands_) * prefix_len);
+  kept_.resize(static_cast<size_t>(kept_bands_));
   for (size_t i = 0; i < kept_.size(); ++i) {
     kept_[i].left_prefix = kept_prefix_.data() + 2 * i * prefix_len;
     kept_[i].right_prefix = kept_[i].left_prefix + prefix_len;
@@ -72,7 +73,7 @@ void PatchCost::loadBand(const PyramidLevel& L, int y0) {
     }
   }
   ValidityBand& band = kept_[static_cast<size_t>(next_kept_)];
-  next_kept_ = (next_kept_ + 1) % kKeptBands;
+  next_kept_ = (next_kept_ + 1) % kept_bands_;
   band.y0 = y0;
   band.left_all_valid = L.left_all_valid ||
       !bandPrefix(L.leftValidRow(y0), L.left_valid.step1(), L.width, p_, column_count_.data(), band.left_prefix);

@@ -14,18 +14,24 @@
 namespace bdis {
 namespace detail {
 
+/// The most validity bands a PatchCost keeps: a search band of more patch
+/// rows (or the whole level) reuses the last this many in its backward pass.
+constexpr int kMaxKeptBands = 32;
+
 class PatchCost {
  public:
   /// What depends only on the parameters.
+  /// `band_rows`: the patch rows a search band holds (0: the whole level),
+  /// whose validity bands are kept for its backward pass.
   void configure(const KernelSet& kernels, int patch_size, bool mean_normalization,
-                 int window_half_width, float window_step);
+                 int window_half_width, float window_step, int band_rows);
   /// Scratch for levels up to `max_width` wide.
   void allocate(int max_width);
 
   /// Makes the validity band describe level rows y0 .. y0 + p - 1 of L: the
   /// patch row that the following patches lie in. The bands of the last
-  /// kKeptBands rows loaded since forgetBands() are kept and reused: the
-  /// backward pass revisits the patch rows its forward pass loaded.
+  /// rows loaded since forgetBands() (a search band's) are kept and reused:
+  /// the backward pass revisits the patch rows its forward pass loaded.
   void loadBand(const PyramidLevel& L, int y0);
   /// Drops the kept bands: call before loading bands of another level or
   /// frame (the masks behind them may have changed).
@@ -109,9 +115,8 @@ class PatchCost {
   int window_half_width_ = 2;
   float window_step_ = 1.f;
   CurrentPatch cur_;
-  /// Patch rows a band of the search holds by default (search_band_rows).
-  static constexpr int kKeptBands = 8;
-  std::vector<ValidityBand> kept_;  ///< kKeptBands bands, each with its own prefix rows
+  int kept_bands_ = 1;               ///< how many bands kept_ holds
+  std::vector<ValidityBand> kept_;  ///< the kept bands, each with its own prefix rows
   std::vector<int> kept_prefix_;    ///< storage of the kept bands' prefix rows
   std::vector<uchar> column_count_; ///< scratch: invalid pixels of each column of a band
   int next_kept_ = 0;               ///< the slot the next band not kept goes to
