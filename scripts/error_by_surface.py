@@ -2,7 +2,7 @@
 """Where the wrong estimates of a run lie by the surface the ground truth
 shows: per band of ground-truth disparity and of its slope (the Sobel
 derivative, px per px), the share of the estimates, their bad2 and their
-share of all wrong ones. With confidences: how many of the wrong estimates in
+share of all wrong ones; the wrong ones by sign and by size of the error. With confidences: how many of the wrong estimates in
 the most confident half are dark (left grey < 30). Reads the 16-bit PNGs
 bdis_match writes (disparity round(d * 256), confidence round(c * 65535),
 0 = no estimate) for every frame that has ground truth; the scorable pixels
@@ -31,6 +31,7 @@ import bdis_common as common  # noqa: E402
 
 DISPARITY_BANDS = ((0, 40), (40, 80), (80, None))
 SLOPE_BANDS = ((0, 0.2), (0.2, None))
+ERROR_BANDS = (("2-4 px", 2, 4), ("4-10 px", 4, 10), ("10 px and more", 10, np.inf))
 DARK_GREY = 30
 WARP_SHIFT = 16  # px added to the residual so that it stays >= 0 for bdis_match
 
@@ -147,6 +148,10 @@ def main():
         print(line)
     print("  the wrong ones: %.0f %% too large a disparity (too near), %.0f %% too small"
           % (100 * (c["signed"][wrong] > 0).mean(), 100 * (c["signed"][wrong] < 0).mean()))
+    size = np.abs(c["signed"][wrong])
+    print("  the wrong ones by error: %s" % ", ".join(
+        "%s %.0f %%" % (name, 100 * ((size >= low) & (size < high)).mean() if len(size) else 0.0)
+        for name, low, high in ERROR_BANDS))
     if c["confidence"] is not None:
         top = np.argsort(-c["confidence"], kind="stable")[:len(wrong) // 2]
         top_wrong = wrong[top]

@@ -319,7 +319,8 @@ class TestDemo(unittest.TestCase):
     def test_8_error_by_surface_splits_the_wrong_estimates(self):
         """scripts/error_by_surface.py on a constructed frame: a flat surface at
         20 px estimated right, a slope from 80 to 100 px estimated 3 px off on
-        its left half; the bands, shares and the confident half's dark share."""
+        its left half, 3 or 12 px off on its right half; the bands, shares, the
+        errors' sizes and the confident half's dark share."""
         root = os.path.join(self.tmp, "surface")
         h, w = 40, 80
         left = np.full((h, w, 3), 100, np.uint8)
@@ -328,7 +329,8 @@ class TestDemo(unittest.TestCase):
         gt[:, 40:] = 80 + (np.arange(40, w) - 40) * 0.5  # slope 0.5 px per px
         estimate = gt.copy()
         estimate[:, 40:60] += 3  # wrong, too near: a quarter of the frame, all on the slope
-        estimate[:, 60:] -= 3    # wrong, too far and dark: another quarter
+        estimate[:, 60:] -= 3    # wrong, too far and dark: another quarter,
+        estimate[:, 70:] -= 9    # half of it 12 px off
         confidence = np.full((h, w), 0.2, np.float32)
         confidence[:, 60:] = 0.9  # the dark wrong quarter is the most confident
         confidence[:, :20] = 0.8  # with a quarter of the right ones
@@ -346,6 +348,7 @@ class TestDemo(unittest.TestCase):
         self.assertRegex(r.stdout, r"d_gt px 0-40 +50\.0 % of the estimates, bad2 +0\.0 %, +0\.0 % of the wrong")
         self.assertRegex(r.stdout, r"d_gt px 80- +50\.0 % of the estimates, bad2 100\.0 %, 100\.0 % of the wrong")
         self.assertIn("50 % too large a disparity (too near), 50 % too small", r.stdout)
+        self.assertIn("the wrong ones by error: 2-4 px 75 %, 4-10 px 0 %, 10 px and more 25 %", r.stdout)
         self.assertIn("most confident half: bad2 50.0 %; dark (grey < 30): 50 % of it, 100 % of its wrong ones",
                       r.stdout)
         missing = subprocess.run([sys.executable, script, os.path.join(root, "seq"), os.path.join(root, "nowhere")],
