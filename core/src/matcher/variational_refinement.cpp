@@ -263,6 +263,7 @@ void VariationalRefinement::fixedPointStep(const PyramidLevel& level, cv::Mat1f*
   // holds the rows the stages still read (kStages + 1 of them).
   constexpr int kStages = 2 * kSweeps;
   static_assert(kRingRows >= kStages + 2, "the ring holds every row the stages read");
+  static_assert((kRingRows & (kRingRows - 1)) == 0, "slot() masks: a power of two");
   for (int step = 0; step < h + kStages - 1; ++step) {
     if (step < h) {
       const int y = step;
