@@ -73,7 +73,8 @@ void PatchCost::loadBand(const PyramidLevel& L, int y0) {
     }
   }
   ValidityBand& band = kept_[static_cast<size_t>(next_kept_)];
-  next_kept_ = (next_kept_ + 1) % kept_bands_;
+  // kept_ as allocated: a configure() since may have changed kept_bands_.
+  next_kept_ = (next_kept_ + 1) % static_cast<int>(kept_.size());
   band.y0 = y0;
   band.left_all_valid = L.left_all_valid ||
       !bandPrefix(L.leftValidRow(y0), L.left_valid.step1(), L.width, p_, column_count_.data(), band.left_prefix);

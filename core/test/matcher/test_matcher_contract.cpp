@@ -369,6 +369,30 @@ TEST(MatcherReuse, FramesWithInvalidPixelsElsewhereGiveFreshResults) {
   expectAlternatingPairsGiveFreshResults(params, a, b);
 }
 
+// Parameters changed on a matcher between frames take effect as in a fresh
+// matcher: here the search's band height, which sizes the validity bands
+// the search keeps (larger, smaller, the whole level, back to the default),
+// on a pair with invalid pixels.
+TEST(MatcherReuse, BandHeightChangedBetweenFramesGivesFreshResults) {
+  StereoPair pair = texturedPair(kW, kH, {7.3, 0.0}, 6);
+  pair.left(cv::Rect(kW / 3, kH / 4, kW / 5, kH / 3)).setTo(255);
+  pair.right(cv::Rect(kW / 3 - 20, kH / 4 + 8, kW / 5, kH / 3)).setTo(255);
+  pair.right.colRange(kW - 25, kW).setTo(0);
+  Matcher m{MatcherParams{}};
+  MatchResult r;
+  m.compute(pair.left, pair.right, r);
+  for (const int band_rows : {24, 2, 0, MatcherParams{}.search_band_rows}) {
+    SCOPED_TRACE("search_band_rows " + std::to_string(band_rows));
+    MatcherParams params;
+    params.search_band_rows = band_rows;
+    m.setParams(params);
+    m.compute(pair.left, pair.right, r);
+    const MatchResult fresh = run(params, pair.left, pair.right);
+    EXPECT_TRUE(identical(r.disparity, fresh.disparity));
+    EXPECT_TRUE(identical(r.confidence, fresh.confidence));
+  }
+}
+
 // A 1920 px frame is searched with a smaller patch than a 640 px one
 // (MatcherParams::patchSizeFor): one matcher switched between the two gives
 // what a fresh matcher gives, and the HD result is the one of that patch size
