@@ -115,7 +115,7 @@ class PatchCost {
   int window_half_width_ = 2;
   float window_step_ = 1.f;
   CurrentPatch cur_;
-  int kept_bands_ = 1;               ///< how many bands kept_ holds
+  int kept_bands_ = 1;               ///< the bands allocate() gives kept_ (from configure())
   std::vector<ValidityBand> kept_;  ///< the kept bands, each with its own prefix rows
   std::vector<int> kept_prefix_;    ///< storage of the kept bands' prefix rows
   std::vector<uchar> column_count_; ///< scratch: invalid pixels of each column of a band
