@@ -2,8 +2,9 @@
 """Where the wrong estimates of a run lie by the surface the ground truth
 shows: per band of ground-truth disparity and of its slope (the Sobel
 derivative, px per px), the share of the estimates, their bad2 and their
-share of all wrong ones; the wrong ones by sign and by size of the error. With confidences: how many of the wrong estimates in
-the most confident half are dark (left grey < 30). Reads the 16-bit PNGs
+share of all wrong ones; the wrong ones by sign and by size of the error.
+With confidences: how many of the wrong estimates in the most confident half
+are dark (left grey < 30). Reads the 16-bit PNGs
 bdis_match writes (disparity round(d * 256), confidence round(c * 65535),
 0 = no estimate) for every frame that has ground truth; the scorable pixels
 are those of ../shared/data/README.md (ground truth > 0, non-black left).

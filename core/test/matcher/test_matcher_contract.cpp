@@ -353,6 +353,16 @@ void expectAlternatingPairsGiveFreshResults(const MatcherParams& params, const S
   }
 }
 
+/// A textured pair with invalid pixels: a clipped blob at different places
+/// in the two views and a black border down the right view's right side.
+StereoPair pairWithClippedBlobAndBlackBorder(unsigned seed) {
+  StereoPair pair = texturedPair(kW, kH, {7.3, 0.0}, seed);
+  pair.left(cv::Rect(kW / 3, kH / 4, kW / 5, kH / 3)).setTo(255);
+  pair.right(cv::Rect(kW / 3 - 20, kH / 4 + 8, kW / 5, kH / 3)).setTo(255);
+  pair.right.colRange(kW - 25, kW).setTo(0);
+  return pair;
+}
+
 // The search keeps the validity of each patch row's band for its backward
 // pass: frames whose invalid pixels (black borders, clipped highlights) lie
 // elsewhere, one after the other, each give a fresh matcher's result.
@@ -360,12 +370,9 @@ TEST(MatcherReuse, FramesWithInvalidPixelsElsewhereGiveFreshResults) {
   MatcherParams params;
   params.compute_variance = true;
   StereoPair a = texturedPair(kW, kH, {7.3, 0.0}, 4);
-  StereoPair b = texturedPair(kW, kH, {7.3, 0.0}, 5);
+  const StereoPair b = pairWithClippedBlobAndBlackBorder(5);
   a.left.colRange(0, 30).setTo(0);
   a.right.colRange(0, 30).setTo(0);
-  b.left(cv::Rect(kW / 3, kH / 4, kW / 5, kH / 3)).setTo(255);
-  b.right(cv::Rect(kW / 3 - 20, kH / 4 + 8, kW / 5, kH / 3)).setTo(255);
-  b.right.colRange(kW - 25, kW).setTo(0);
   expectAlternatingPairsGiveFreshResults(params, a, b);
 }
 
@@ -374,10 +381,7 @@ TEST(MatcherReuse, FramesWithInvalidPixelsElsewhereGiveFreshResults) {
 // the search keeps (larger, smaller, the whole level, back to the default),
 // on a pair with invalid pixels.
 TEST(MatcherReuse, BandHeightChangedBetweenFramesGivesFreshResults) {
-  StereoPair pair = texturedPair(kW, kH, {7.3, 0.0}, 6);
-  pair.left(cv::Rect(kW / 3, kH / 4, kW / 5, kH / 3)).setTo(255);
-  pair.right(cv::Rect(kW / 3 - 20, kH / 4 + 8, kW / 5, kH / 3)).setTo(255);
-  pair.right.colRange(kW - 25, kW).setTo(0);
+  const StereoPair pair = pairWithClippedBlobAndBlackBorder(6);
   Matcher m{MatcherParams{}};
   MatchResult r;
   m.compute(pair.left, pair.right, r);
