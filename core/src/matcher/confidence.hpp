@@ -55,6 +55,10 @@ constexpr float kEdgeJumpPx = 2.0f;
 /// confidence, in patch sides: the consensus cue's reach.
 constexpr float kEdgeHalvingPatches = 2.0f;
 
+/// Shortfall of an estimate carried out to the image's edge (the slope there
+/// times the distance carried) at which the confidence halves: that of the spread.
+constexpr float kImageBorderHalvingPx = kSpreadHalvingPx;
+
 /// The variance of a pixel's disparity, as a standard deviation of its
 /// error should be: a share of the covering patches' window fit (which alone
 /// was too wide for most pixels: 87 % of the errors within 1 sigma), plus

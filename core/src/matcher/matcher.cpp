@@ -15,6 +15,7 @@
 #include "confidence.hpp"
 #include "consensus_cue.hpp"
 #include "edge_distance_cue.hpp"
+#include "image_border_cue.hpp"
 #include "left_right_check.hpp"
 #include "patch_grid.hpp"
 #include "pyramid.hpp"
@@ -87,6 +88,7 @@ struct Matcher::Impl {
   detail::ConsensusCue consensus;
   detail::ResidualFitCue residual_fit;
   detail::EdgeDistanceCue edge_distance;
+  detail::ImageBorderCue image_border;     ///< the image border cue
   detail::VariationalRefinement refinement;
   detail::Upsampler upsampler;
 
@@ -196,6 +198,8 @@ void Matcher::Impl::lowerConfidenceByCues(int finest, detail::LevelMaps& out) {
   // The edge distance cue: estimates near a jump between neighbours.
   edge_distance.apply(out.disparity, detail::kEdgeJumpPx * level_px,
                       detail::kEdgeHalvingPatches * static_cast<float>(p), out.confidence);
+  // The image border cue: estimates the patches carry out to the image's edge.
+  image_border.apply(out.disparity, p, detail::kImageBorderHalvingPx * level_px, out.confidence);
 }
 
 void Matcher::Impl::configureFor(int width) {

@@ -1,0 +1,120 @@
+#include "image_border_cue.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "confidence.hpp"
+
+namespace bdis {
+namespace detail {
+namespace {
+
+/// Means of the estimates in boxes of side 2 half + 1 (clipped to the image)
+/// centred on row `line` (along_rows) or column `line` (!along_rows), one per
+/// position along it; NaN where a box holds none.
+void boxMeansAlongLine(const cv::Mat1f& disparity, bool along_rows, int line, int half, std::vector<float>& sum,
+                       std::vector<float>& count, std::vector<float>& mean) {
+  const int n = along_rows ? disparity.cols : disparity.rows;
+  const int across = along_rows ? disparity.rows : disparity.cols;
+  sum.assign(static_cast<size_t>(n), 0.f);
+  count.assign(static_cast<size_t>(n), 0.f);
+  const int first = std::max(0, line - half), last = std::min(across - 1, line + half);
+  if (along_rows) {
+    for (int a = first; a <= last; ++a) {
+      const float* d = disparity[a];
+      for (int i = 0; i < n; ++i) {
+        const bool estimate = d[i] >= 0.f;
+        sum[static_cast<size_t>(i)] += estimate ? d[i] : 0.f;
+        count[static_cast<size_t>(i)] += estimate ? 1.f : 0.f;
+      }
+    }
+  } else {
+    for (int i = 0; i < n; ++i) {
+      const float* d = disparity[i];
+      float s = 0.f, c = 0.f;
+      for (int a = first; a <= last; ++a) {
+        const bool estimate = d[a] >= 0.f;
+        s += estimate ? d[a] : 0.f;
+        c += estimate ? 1.f : 0.f;
+      }
+      sum[static_cast<size_t>(i)] = s;
+      count[static_cast<size_t>(i)] = c;
+    }
+  }
+  // The same box along the line: a running sum of the cross-sums.
+  mean.assign(static_cast<size_t>(n), NAN);
+  float s = 0.f, c = 0.f;
+  for (int i = 0; i < std::min(half, n); ++i) {
+    s += sum[static_cast<size_t>(i)];
+    c += count[static_cast<size_t>(i)];
+  }
+  for (int i = 0; i < n; ++i) {
+    if (i + half < n) {
+      s += sum[static_cast<size_t>(i + half)];
+      c += count[static_cast<size_t>(i + half)];
+    }
+    if (i - half - 1 >= 0) {
+      s -= sum[static_cast<size_t>(i - half - 1)];
+      c -= count[static_cast<size_t>(i - half - 1)];
+    }
+    if (c > 0.5f) mean[static_cast<size_t>(i)] = s / c;
+  }
+}
+
+}  // namespace
+
+void ImageBorderCue::edgeSlopes(const cv::Mat1f& disparity, bool along_rows, int edge, int inward, int patch_px,
+                                std::vector<float>& slope) {
+  const int half = patch_px / 2;
+  boxMeansAlongLine(disparity, along_rows, edge + inward * half, half, sum_, count_, near_);
+  boxMeansAlongLine(disparity, along_rows, edge + inward * (patch_px + half), half, sum_, count_, far_);
+  slope.resize(near_.size());
+  for (size_t i = 0; i < slope.size(); ++i) {
+    const float s = std::fabs(far_[i] - near_[i]) / static_cast<float>(patch_px);
+    slope[i] = std::isfinite(s) ? s : 0.f;  // a box without estimates: no slope
+  }
+}
+
+void ImageBorderCue::apply(const cv::Mat1f& disparity, int patch_px, float halving, cv::Mat1f& confidence) {
+  CV_Assert(confidence.size() == disparity.size());
+  const int w = disparity.cols, h = disparity.rows, p = patch_px;
+  if (p < 2 || w < 2 * p + 1 || h < 2 * p + 1) return;
+  edgeSlopes(disparity, true, 0, 1, p, top_);
+  edgeSlopes(disparity, true, h - 1, -1, p, bottom_);
+  edgeSlopes(disparity, false, 0, 1, p, left_);
+  edgeSlopes(disparity, false, w - 1, -1, p, right_);
+  const float inv_halving_sq = 1.f / (halving * halving);
+  // The distance carried: from a patch side in (where patches reach from
+  // both sides) out to the pixel.
+  auto carried = [p](int distance_from_edge) { return static_cast<float>(std::max(0, p - distance_from_edge)); };
+  for (int y = 0; y < h; ++y) {
+    const float from_top = carried(y), from_bottom = carried(h - 1 - y);
+    const float* d = disparity[y];
+    float* c = confidence[y];
+    const size_t iy = static_cast<size_t>(y);
+    auto lower = [&](int x, float shortfall) {
+      const float lowered = c[x] * agreement(shortfall * shortfall, inv_halving_sq);
+      c[x] = d[x] >= 0.f ? lowered : c[x];
+    };
+    const bool top_or_bottom = from_top > 0.f || from_bottom > 0.f;
+    for (int x = 0; x < w; ++x) {
+      if (x == p) {
+        // Between the side bands only the top or bottom edge reaches.
+        if (!top_or_bottom) {
+          x = w - p - 1;
+          continue;
+        }
+        for (; x < w - p; ++x) {
+          const size_t ix = static_cast<size_t>(x);
+          lower(x, std::max(top_[ix] * from_top, bottom_[ix] * from_bottom));
+        }
+      }
+      const size_t ix = static_cast<size_t>(x);
+      lower(x, std::max({top_[ix] * from_top, bottom_[ix] * from_bottom, left_[iy] * carried(x),
+                         right_[iy] * carried(w - 1 - x)}));
+    }
+  }
+}
+
+}  // namespace detail
+}  // namespace bdis
