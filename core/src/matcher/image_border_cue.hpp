@@ -20,8 +20,9 @@ class ImageBorderCue {
   /// kNoDisparity where none) within `patch_px` of an image edge by
   /// agreement() of slope * (patch_px - distance) with `halving` (level px),
   /// the slope that edge's normal direction shows a patch side in from it:
-  /// the difference of the mean estimates in two (p + 1) x (p + 1) boxes
-  /// centred p/2 and 3p/2 from the edge, over p (one box alone: no slope).
+  /// the difference of the mean estimates in two boxes of side 2 (p / 2) + 1
+  /// centred p / 2 and p + p / 2 from the edge, over p (a box without
+  /// estimates: no slope).
   /// Images under 2 p + 1 px on a side are left as they are.
   void apply(const cv::Mat1f& disparity, int patch_px, float halving, cv::Mat1f& confidence);
 
