@@ -33,6 +33,10 @@ constexpr float kSlantHalvingPx = 2.0f;
 /// outline) dominates the patch and pulls its disparity to the edge's own.
 constexpr float kStrongTextureGreyPerPx = 2.0f;
 constexpr float kMisfitHalvingGrey = kSlantHalvingPx * kStrongTextureGreyPerPx;
+/// Bend of the surface across a patch (the Laplacian of the patch-box means
+/// at half a patch's step) at which the confidence halves: that of the
+/// spread, as the patches around a pixel miss the bend by about that much.
+constexpr float kBendHalvingPx = kSpreadHalvingPx;
 /// Share of a pixel's neighbourhood without an estimate at which the
 /// confidence halves: a quarter of what its covering patches reach.
 constexpr float kSupportHalvingShare = 0.25f;

@@ -181,10 +181,10 @@ void Matcher::Impl::lowerConfidenceByCues(int finest, detail::LevelMaps& out) {
   const detail::PyramidLevel& level = pyramid.level(finest);
   const int p = resolved.patch_size;
   const float level_px = 1.f / static_cast<float>(1 << finest);
-  // The slant cue: surfaces too slanted for a patch of one disparity, or
-  // slanted and so strongly textured that the patch misfits them.
+  // The slant cue: surfaces too slanted or bent for a patch of one
+  // disparity, or slanted and so strongly textured that the patch misfits them.
   slant.apply(out.disparity, level.left_gx, p, detail::kSlantHalvingPx * level_px, detail::kMisfitHalvingGrey,
-              out.confidence);
+              detail::kBendHalvingPx * level_px, out.confidence);
   // The support cue: estimates among holes.
   support.apply(out.disparity, level.left_valid, level.left, p, detail::kSupportHalvingShare, out.confidence);
   // The consensus cue: estimates that stand apart from their neighbourhood.

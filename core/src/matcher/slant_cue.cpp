@@ -41,21 +41,29 @@ inline float clippedSpan(int i, int n, int r) {
   return static_cast<float>(std::min(i + r, n - 1) - std::max(i - r, 0) + 1);
 }
 
+/// The bend of the box means around the centre, r to each side: their
+/// discrete Laplacian (px of disparity), 0 unless all four neighbours exist.
+inline float bend(float left, float right, float above, float below, float centre) {
+  const bool all = left >= 0.f && right >= 0.f && above >= 0.f && below >= 0.f;
+  return all ? left + right + above + below - 4.f * centre : 0.f;
+}
+
 /// `mean`, `above` and `below` point at column 0 of padded mean rows (r
 /// columns of kNoDisparity before and after).
 BDIS_ROW_LOOP
 void slantRow(int w, int r, const float* __restrict above, const float* __restrict mean,
               const float* __restrict below, const float* __restrict disparity, float inv_halving_sq,
               const float* __restrict gradient_sq_sum, const float* __restrict box_columns, float box_rows,
-              float inv_misfit_halving_sq, float* __restrict confidence) {
+              float inv_misfit_halving_sq, float inv_bend_halving_sq, float* __restrict confidence) {
   const float inv_step = 1.f / static_cast<float>(r);
   for (int x = 0; x < w; ++x) {
     const float gx = derivative(mean[x - r], mean[x], mean[x + r], inv_step);
     const float gy = derivative(above[x], mean[x], below[x], inv_step);
     const float slope_sq = gx * gx + gy * gy;
     const float gradient_sq = gradient_sq_sum[x] / (box_columns[x] * box_rows);
+    const float b = bend(mean[x - r], mean[x + r], above[x], below[x], mean[x]);
     const float c = confidence[x] * agreement(slope_sq, inv_halving_sq) *
-                    agreement(slope_sq * gradient_sq, inv_misfit_halving_sq);
+                    agreement(slope_sq * gradient_sq, inv_misfit_halving_sq) * agreement(b * b, inv_bend_halving_sq);
     confidence[x] = disparity[x] >= 0.f ? c : confidence[x];
   }
 }
@@ -63,7 +71,7 @@ void slantRow(int w, int r, const float* __restrict above, const float* __restri
 }  // namespace
 
 void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int patch_px, float halving,
-                     float misfit_halving, cv::Mat1f& confidence) {
+                     float misfit_halving, float bend_halving, cv::Mat1f& confidence) {
   const int w = disparity.cols, h = disparity.rows;
   const int r = std::max(1, patch_px / 2);
   mean_.create(h + 1, w + 2 * r);
@@ -104,13 +112,14 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
   const float inv_halving_sq = 1.f / (slope_halving * slope_halving);
   const float slope_gradient_halving = misfit_halving / static_cast<float>(patch_px);
   const float inv_misfit_halving_sq = 1.f / (slope_gradient_halving * slope_gradient_halving);
+  const float inv_bend_halving_sq = 1.f / (bend_halving * bend_halving);
   const float* none = mean_[h] + r;
   for (int y = 0; y < h; ++y) {
     const float *gradient_sq_sum, *unused;
     gradient_sums_.nextColumnSums(y, gradient_sq_sum, unused);
     slantRow(w, r, y >= r ? mean_[y - r] + r : none, mean_[y] + r, y + r < h ? mean_[y + r] + r : none,
              disparity[y], inv_halving_sq, gradient_sq_sum, box_columns_.data(), clippedSpan(y, h, r),
-             inv_misfit_halving_sq, confidence[y]);
+             inv_misfit_halving_sq, inv_bend_halving_sq, confidence[y]);
   }
 }
 

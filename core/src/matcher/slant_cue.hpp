@@ -9,7 +9,10 @@
 // texture a smaller slant already misfits: the patch's grey levels at its
 // rim are off by about its disparity change times the texture's gradient,
 // and a strong edge inside it (a fold rim, an instrument's outline) then
-// pulls the match to the edge's own disparity.
+// pulls the match to the edge's own disparity. Where the surface bends
+// within a patch's reach (a fold's rim, the nearest tissue), a patch of one
+// disparity, and the mean of the patches around a pixel, miss the bend: short
+// on a ridge, past it in a valley.
 #pragma once
 
 #include <vector>
@@ -32,10 +35,13 @@ class SlantCue {
   /// does). Then by agreement() of the misfit, |grad D| * `patch_px` * g,
   /// with `misfit_halving` (grey levels), g the RMS of `gradient` (the left
   /// image's horizontal gradient, grey levels per level px) over the same
-  /// box. Buffers are kept for the next frame of the same size; the box
-  /// sums are separable, in row loops that vectorise.
+  /// box. Then by agreement() of the bend, the discrete Laplacian of those
+  /// box means at the same step (B(x - r) + B(x + r) + B(y - r) + B(y + r)
+  /// - 4 B, r = `patch_px` / 2; 0 unless all four exist), with
+  /// `bend_halving` (level px). Buffers are kept for the next frame of the
+  /// same size; the box sums are separable, in row loops that vectorise.
   void apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int patch_px, float halving,
-             float misfit_halving, cv::Mat1f& confidence);
+             float misfit_halving, float bend_halving, cv::Mat1f& confidence);
 
  private:
   BoxSums sums_;           ///< of the estimates and of their count

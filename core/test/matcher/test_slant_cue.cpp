@@ -15,10 +15,12 @@ using bdis::detail::SlantCue;
 constexpr int kPatch = 8;        // level px; the box reaches 4 px to each side
 constexpr float kHalving = 1.f;  // level px of disparity across a patch
 constexpr float kMisfitHalving = 4.f;  // grey levels
+constexpr float kBendHalving = 1.f;    // level px of bend
+constexpr float kBendOff = 1e6f;       // a halving no bend here reaches: the slant and misfit alone
 
 /// The cue on an untextured image (gradient 0): the slant alone.
 void applySlant(SlantCue& cue, const cv::Mat1f& disparity, cv::Mat1f& confidence) {
-  cue.apply(disparity, cv::Mat1f(disparity.size(), 0.f), kPatch, kHalving, kMisfitHalving, confidence);
+  cue.apply(disparity, cv::Mat1f(disparity.size(), 0.f), kPatch, kHalving, kMisfitHalving, kBendOff, confidence);
 }
 
 /// d = 30 + gx * x + gy * y everywhere, confidence 1.
@@ -60,6 +62,32 @@ TEST(SlantCue, InteriorOfAPlaneGetsTheFactorOfItsSlope) {
         ASSERT_NEAR(c(y, x), want, 1e-4f) << "gx " << gx << " gy " << gy << " at " << x << "," << y;
       }
     }
+  }
+}
+
+TEST(SlantCue, APlaneHasNoBend) {
+  cv::Mat1f d, c;
+  plane(64, 48, 0.1f, 0.2f, d, c);
+  SlantCue cue;
+  cue.apply(d, cv::Mat1f(d.size(), 0.f), kPatch, kHalving, kMisfitHalving, kBendHalving, c);
+  const float want = expectedFactor(std::hypot(0.1f, 0.2f));
+  for (int y = 8; y < 40; ++y) {
+    for (int x = 8; x < 56; ++x) ASSERT_NEAR(c(y, x), want, 1e-4f) << x << "," << y;
+  }
+}
+
+TEST(SlantCue, ABentSurfaceGetsTheFactorOfItsBend) {
+  // d = 30 + a (x - 32)^2 (a trough along y) and its ridge, 30 - a (x - 32)^2:
+  // the box means (9 px wide) are the curve plus a constant, so their
+  // Laplacian 4 px to each side is 2 a 4^2 = 32 a everywhere, and at x = 32
+  // the slope is 0: the bend's factor alone.
+  SlantCue cue;
+  for (float a : {1.f / 64.f, 1.f / 32.f, -1.f / 32.f}) {
+    cv::Mat1f d(48, 64), c(48, 64, 1.f);
+    for (int x = 0; x < 64; ++x) d.col(x).setTo(30.f + a * static_cast<float>((x - 32) * (x - 32)));
+    cue.apply(d, cv::Mat1f(d.size(), 0.f), kPatch, kHalving, kMisfitHalving, kBendHalving, c);
+    const float bend = 32.f * a / kBendHalving;
+    for (int y = 8; y < 40; ++y) ASSERT_NEAR(c(y, 32), 1.f / (1.f + bend * bend), 1e-4f) << "a " << a << " y " << y;
   }
 }
 
@@ -116,7 +144,7 @@ TEST(SlantCue, DepthStepLowersTheConfidenceAlongItOnly) {
 TEST(SlantCue, EmptyMapAndMapsSmallerThanABox) {
   SlantCue cue;
   cv::Mat1f d(5, 3, kNoDisparity), c(5, 3, 0.f);
-  cue.apply(d, cv::Mat1f(5, 3, 50.f), kPatch, kHalving, kMisfitHalving, c);
+  cue.apply(d, cv::Mat1f(5, 3, 50.f), kPatch, kHalving, kMisfitHalving, kBendOff, c);
   EXPECT_EQ(cv::countNonZero(c), 0);
   cv::Mat1f d2, c2;
   plane(3, 5, 0.5f, 0.f, d2, c2);
@@ -137,7 +165,7 @@ float expectedMisfitFactor(float s, float g) {
 TEST(SlantCue, TextureOnAFrontoParallelSurfaceKeepsItsConfidence) {
   cv::Mat1f d, c;
   plane(64, 48, 0.f, 0.f, d, c);
-  SlantCue().apply(d, cv::Mat1f(48, 64, 30.f), kPatch, kHalving, kMisfitHalving, c);
+  SlantCue().apply(d, cv::Mat1f(48, 64, 30.f), kPatch, kHalving, kMisfitHalving, kBendOff, c);
   EXPECT_EQ(cv::countNonZero(c != 1.f), 0);
 }
 
@@ -147,7 +175,7 @@ TEST(SlantCue, TexturedSlantGetsTheFactorOfItsMisfit) {
     cv::Mat1f d, c;
     plane(64, 48, 0.f, slope, d, c);
     cv::Mat1f gradient(48, 64, g);
-    cue.apply(d, gradient, kPatch, kHalving, kMisfitHalving, c);
+    cue.apply(d, gradient, kPatch, kHalving, kMisfitHalving, kBendOff, c);
     const float want = expectedFactor(slope) * expectedMisfitFactor(slope, g);
     for (int y = 8; y < 40; ++y) {
       for (int x = 8; x < 56; ++x) {
@@ -172,8 +200,8 @@ TEST(SlantCue, TheMisfitTakesTheGradientsRmsNotItsMean) {
     for (int x = 0; x < 64; ++x) stripes(y, x) = (x / 2) % 2 == 0 ? g : -g;
   }
   SlantCue cue;
-  cue.apply(d, cv::Mat1f(48, 64, g), kPatch, kHalving, kMisfitHalving, ramp_confidence);
-  cue.apply(d, stripes, kPatch, kHalving, kMisfitHalving, stripe_confidence);
+  cue.apply(d, cv::Mat1f(48, 64, g), kPatch, kHalving, kMisfitHalving, kBendOff, ramp_confidence);
+  cue.apply(d, stripes, kPatch, kHalving, kMisfitHalving, kBendOff, stripe_confidence);
   EXPECT_LT(ramp_confidence(24, 32), 0.5f * expectedFactor(slope));
   EXPECT_NEAR(stripe_confidence(24, 32), ramp_confidence(24, 32), 1e-4f);
 }
@@ -184,7 +212,7 @@ TEST(SlantCue, StrongerTextureOnTheSameSlantLowersTheConfidenceMore) {
   for (float g : {0.f, 1.f, 3.f, 8.f, 20.f}) {
     cv::Mat1f d, c;
     plane(40, 40, 0.06f, 0.f, d, c);
-    cue.apply(d, cv::Mat1f(40, 40, g), kPatch, kHalving, kMisfitHalving, c);
+    cue.apply(d, cv::Mat1f(40, 40, g), kPatch, kHalving, kMisfitHalving, kBendOff, c);
     if (g > 0.f) {
       EXPECT_LT(c(20, 20), previous) << "gradient " << g;
     }
