@@ -17,6 +17,7 @@
 #include "edge_distance_cue.hpp"
 #include "image_border_cue.hpp"
 #include "left_right_check.hpp"
+#include "neighbourhood_cue.hpp"
 #include "patch_grid.hpp"
 #include "pyramid.hpp"
 #include "residual_fit_cue.hpp"
@@ -89,6 +90,7 @@ struct Matcher::Impl {
   detail::ResidualFitCue residual_fit;
   detail::EdgeDistanceCue edge_distance;
   detail::ImageBorderCue image_border;     ///< the image border cue
+  detail::NeighbourhoodCue neighbourhood;  ///< the neighbourhood cue
   detail::VariationalRefinement refinement;
   detail::Upsampler upsampler;
 
@@ -200,6 +202,9 @@ void Matcher::Impl::lowerConfidenceByCues(int finest, detail::LevelMaps& out) {
                       detail::kEdgeHalvingPatches * static_cast<float>(p), out.confidence);
   // The image border cue: estimates the patches carry out to the image's edge.
   image_border.apply(out.disparity, p, detail::kImageBorderHalvingPx * level_px, out.confidence);
+  // The neighbourhood cue, last: each confidence pooled with its neighbours'
+  // as the cues above left them.
+  neighbourhood.apply(out.disparity, p, out.confidence);
 }
 
 void Matcher::Impl::configureFor(int width) {

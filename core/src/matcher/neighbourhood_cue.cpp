@@ -1,0 +1,56 @@
+#include "neighbourhood_cue.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "patch_kernels.hpp"  // BDIS_ROW_LOOP
+
+namespace bdis {
+namespace detail {
+namespace {
+
+/// The box sums' inputs of one row: each estimate's confidence, 0 where
+/// none, and 1 where there is one.
+BDIS_ROW_LOOP
+void confidenceRows(int w, const float* __restrict disparity, const float* __restrict confidence,
+                    float* __restrict value, float* __restrict count) {
+  for (int x = 0; x < w; ++x) {
+    value[x] = disparity[x] >= 0.f ? confidence[x] : 0.f;
+    count[x] = disparity[x] >= 0.f ? 1.f : 0.f;
+  }
+}
+
+/// c^(3/4) m^(1/4) = sqrt(c sqrt(c m)): two square roots, no pow per pixel.
+BDIS_ROW_LOOP
+void pooledRow(int w, const float* __restrict sum, const float* __restrict count,
+               const float* __restrict disparity, float* __restrict confidence) {
+  for (int x = 0; x < w; ++x) {
+    const float c = confidence[x];
+    // The sliding sums may round a little below 0 where the box holds only zeros.
+    const float mean = std::max(sum[x], 0.f) / std::max(count[x], 1.f);
+    const float pooled = std::sqrt(c * std::sqrt(c * mean));
+    confidence[x] = disparity[x] >= 0.f ? pooled : c;
+  }
+}
+
+}  // namespace
+
+void NeighbourhoodCue::apply(const cv::Mat1f& disparity, int patch_px, cv::Mat1f& confidence) {
+  CV_Assert(confidence.size() == disparity.size());
+  const int w = disparity.cols, h = disparity.rows;
+  // All rows are summed before any is changed: the box reads the
+  // confidences as the other cues left them.
+  sums_.begin(w, h, std::max(1, patch_px / 2));
+  for (int y = 0; y < h; ++y) {
+    confidenceRows(w, disparity[y], confidence[y], sums_.paddedA(), sums_.paddedB());
+    sums_.sumRow(y);
+  }
+  for (int y = 0; y < h; ++y) {
+    const float *sum, *count;
+    sums_.nextColumnSums(y, sum, count);
+    pooledRow(w, sum, count, disparity[y], confidence[y]);
+  }
+}
+
+}  // namespace detail
+}  // namespace bdis
