@@ -111,10 +111,11 @@ struct Matcher::Impl {
   /// scheduleFinestBands; the check's rows are mirrored just before their band.
   void searchFinestLevel(int finest, bool with_check);
 
-  /// The confidence's cues on the finest level's estimates `out`: each
-  /// lowers the confidence where the estimates are in doubt for a reason the
-  /// posteriors cannot see (confidence.hpp).
-  void lowerConfidenceByCues(int finest, detail::LevelMaps& out);
+  /// The confidence's cues on the finest level's estimates `out`: each but
+  /// the last lowers the confidence where the estimates are in doubt for a
+  /// reason the posteriors cannot see (confidence.hpp); the last pools each
+  /// confidence with its neighbours'.
+  void applyConfidenceCues(int finest, detail::LevelMaps& out);
 };
 
 Matcher::Matcher(const MatcherParams& params) : impl_(std::make_unique<Impl>()) { setParams(params); }
@@ -169,7 +170,7 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   m.refinement.apply(m.pyramid.level(finest), m.left.aboveFinest(), out.disparity);
   // 6. The confidence's cues, only when the confidence is asked for: they
   //    change no disparity.
-  if (outputs.confidence) m.lowerConfidenceByCues(finest, out);
+  if (outputs.confidence) m.applyConfidenceCues(finest, out);
   // 7. Upsampling to the input resolution.
   m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, outputs.confidence, result);
   if (P.compute_variance && outputs.variance) {
@@ -179,7 +180,7 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   }
 }
 
-void Matcher::Impl::lowerConfidenceByCues(int finest, detail::LevelMaps& out) {
+void Matcher::Impl::applyConfidenceCues(int finest, detail::LevelMaps& out) {
   const detail::PyramidLevel& level = pyramid.level(finest);
   const int p = resolved.patch_size;
   const float level_px = 1.f / static_cast<float>(1 << finest);
