@@ -9,6 +9,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "matcher/block_grid.hpp"
 #include "matcher/pyramid.hpp"  // the matcher's grey levels and validity
 
 namespace bdis {
@@ -108,34 +109,6 @@ DisparitySignCheck checkDisparitySign(const cv::Mat& left, const cv::Mat& right)
 
 namespace {
 
-constexpr int kCodecBlock = 8;        // px: JPEG's and MPEG's transform blocks
-constexpr int kMaxFlatStep = 16;      // grey levels: steps above are texture or edges, not block seams
-constexpr long kMinStepsPerPhase = 256;
-
-/// Per phase k (step between pixel k-1 and k, modulo the block), sum and count of the steps.
-struct PhaseSteps {
-  double sum[kCodecBlock] = {};
-  long count[kCodecBlock] = {};
-  /// The step between two pixels inside the view (valid), when flat enough.
-  void add(int phase, int a, int b, bool both_valid) {
-    const int step = std::abs(a - b);
-    if (!both_valid || step > kMaxFlatStep) return;
-    sum[phase] += step;
-    count[phase] += 1;
-  }
-  /// Strongest phase's mean step over the median of the others'; 1 without enough steps.
-  double contrast() const {
-    double mean[kCodecBlock];
-    for (int k = 0; k < kCodecBlock; ++k) {
-      if (count[k] < kMinStepsPerPhase) return 1.0;
-      mean[k] = sum[k] / static_cast<double>(count[k]);
-    }
-    std::sort(mean, mean + kCodecBlock);
-    const double others_median = mean[(kCodecBlock - 1) / 2];  // the median of the other seven
-    return others_median > 0 ? mean[kCodecBlock - 1] / others_median : 1.0;
-  }
-};
-
 /// Grey levels and validity of the rows of a view, as the matcher takes them.
 struct GreyRow {
   std::vector<uchar> grey, valid;
@@ -158,16 +131,14 @@ BlockArtefactCheck checkBlockArtefacts(const cv::Mat& image) {
   if (image.empty() || image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
     throw std::invalid_argument("checkBlockArtefacts: an 8-bit mono or BGR image expected");
   }
-  PhaseSteps along_x, along_y;
+  detail::PhaseSteps along_x, along_y;
   GreyRow above(image.cols), row(image.cols);
   for (int y = 0; y < image.rows; ++y) {
     row.load(image, y);
-    for (size_t x = 1; x < row.grey.size(); ++x) {
-      along_x.add(static_cast<int>(x % kCodecBlock), row.grey[x - 1], row.grey[x], row.valid[x - 1] && row.valid[x]);
-    }
+    along_x.addRow(row.grey.data(), row.valid.data(), image.cols);
     if (y > 0) {
       for (size_t x = 0; x < row.grey.size(); ++x) {
-        along_y.add(y % kCodecBlock, above.grey[x], row.grey[x], above.valid[x] && row.valid[x]);
+        along_y.add(y % detail::kCodecBlock, above.grey[x], row.grey[x], above.valid[x] && row.valid[x]);
       }
     }
     std::swap(above, row);

@@ -9,7 +9,9 @@
 // wider neighbourhood (consensus_cue.hpp) and where the images, warped by
 // the estimates, still show a slant they miss or pin their shift only
 // loosely against their own noise (residual_fit_cue.hpp), and the nearer it
-// lies to a jump between neighbouring estimates (edge_distance_cue.hpp).
+// lies to a jump between neighbouring estimates (edge_distance_cue.hpp),
+// and, on block-coded views, where the codec's grid may have pulled it
+// (block_grid_cue.hpp).
 // Measured on generated
 // scenes and the colon sequences, each cue ranks the wrong estimates better
 // than the evidence alone; see docs/method.md for the figures.
@@ -62,6 +64,11 @@ constexpr float kEdgeHalvingPatches = 2.0f;
 /// Shortfall of an estimate carried out to the image's edge (the slope there
 /// times the distance carried) at which the confidence halves: that of the spread.
 constexpr float kImageBorderHalvingPx = kSpreadHalvingPx;
+/// On views whose block codec grids align at some disparity: how far from it
+/// (input px) an estimate may have been pulled there, that of the spread,
+/// and the share of its confidence taken where it sits exactly on it.
+constexpr float kBlockGridReachPx = kSpreadHalvingPx;
+constexpr float kBlockGridDoubt = 0.75f;
 
 /// The variance of a pixel's disparity, as a standard deviation of its
 /// error should be: a share of the covering patches' window fit (which alone

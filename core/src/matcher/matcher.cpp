@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "band_schedule.hpp"
+#include "block_grid_cue.hpp"
 #include "confidence.hpp"
 #include "consensus_cue.hpp"
 #include "edge_distance_cue.hpp"
@@ -144,7 +145,7 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   const bool with_check = P.lr_check_tolerance > 0.f;
 
   // 1. Pyramid: grey levels, gradients and validity of the pair.
-  m.pyramid.build(left, right, levels, finest, P.saturation_grey);
+  m.pyramid.build(left, right, levels, finest, P.saturation_grey, /*probe_block_grid=*/outputs.confidence);
   // 2. Coarse to fine above the finest level; each level initialises the next.
   m.matchLevelsAboveFinest(left.size(), levels, finest);
   if (with_check) {
@@ -203,6 +204,11 @@ void Matcher::Impl::applyConfidenceCues(int finest, detail::LevelMaps& out) {
                       detail::kEdgeHalvingPatches * static_cast<float>(p), out.confidence);
   // The image border cue: estimates the patches carry out to the image's edge.
   image_border.apply(out.disparity, p, detail::kImageBorderHalvingPx * level_px, out.confidence);
+  // The block grid cue: on block-coded views, estimates the codec's grid may
+  // have pulled to where the views' grids align.
+  detail::applyBlockGridCue(out.disparity, static_cast<float>(1 << finest),
+                            detail::alignedGridDisparity(pyramid.columnSteps(true), pyramid.columnSteps(false)),
+                            detail::kBlockGridReachPx, detail::kBlockGridDoubt, out.confidence);
   // The neighbourhood cue, last: each confidence pooled with its neighbours'
   // as the cues above left them.
   neighbourhood.apply(out.disparity, p, out.confidence);

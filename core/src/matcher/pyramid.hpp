@@ -8,6 +8,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "block_grid.hpp"
 #include "patch_kernels.hpp"  // kRightPadding
 
 namespace bdis {
@@ -55,11 +56,16 @@ class StereoPyramid {
   /// gradients only from `first_searched_level` on. Pixels black in every
   /// channel, the dark seam rectification leaves next to a black frame and
   /// pixels of grey level `saturation_grey` or brighter are invalid.
+  /// With `probe_block_grid`, columnSteps() are gathered too.
   void build(const cv::Mat& left, const cv::Mat& right, int num_levels, int first_searched_level,
-             int saturation_grey = 256);
+             int saturation_grey = 256, bool probe_block_grid = false);
   const PyramidLevel& level(int s) const { return levels_[static_cast<size_t>(s)]; }
   int numLevels() const { return static_cast<int>(levels_.size()); }
   cv::Size size() const { return size_; }  ///< of the input (level 0)
+  /// The flat grey steps along every 16th input row of the left (true) or
+  /// right view, by column phase: what shows a block codec's grid. Empty
+  /// unless build() was asked to probe.
+  const PhaseSteps& columnSteps(bool left_view) const { return left_view ? left_columns_ : right_columns_; }
   /// Multiplies the right view's grey levels of level s (a searched one) by
   /// `factor`; validity unchanged.
   void scaleRightView(int s, float factor);
@@ -78,6 +84,10 @@ class StereoPyramid {
   /// input's rows; rows 2 and 3 the right validity of the two rows
   /// downsampleInputs averages (level 0 stores none when not searched).
   cv::Mat1b input_rows_;
+  PhaseSteps left_columns_, right_columns_;
+  bool probe_block_grid_ = false;
+  /// Adds input row y's steps to its view's columnSteps() if y is sampled.
+  void probeBlockGrid(bool left_view, int y, const uchar* grey, const uchar* valid);
 };
 
 /// The searched levels of the mirrored pair (the right image, flipped, as

@@ -1,0 +1,130 @@
+// The block grid (block_grid.hpp) and its confidence cue (block_grid_cue.hpp):
+// JPEG round trips show their grid's column phase, a view cropped after coding
+// moves it, the views' phases give the disparity where their seams align, an
+// uncoded view shows none; the pyramid gathers the steps only when asked; the
+// cue's factor is exact near and away from the aligned disparities.
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "bdis_stereo/matcher.hpp"
+#include "block_grid.hpp"
+#include "block_grid_cue.hpp"
+#include "pyramid.hpp"
+
+namespace {
+
+using bdis::kNoDisparity;
+using bdis::detail::alignedGridDisparity;
+using bdis::detail::PhaseSteps;
+
+/// Weak smooth texture (grey 60..100), as tissue shows.
+cv::Mat weakTexture(int width, int height, int seed) {
+  cv::Mat noise(height, width, CV_32FC1), grey;
+  cv::RNG rng(static_cast<uint64>(seed));
+  rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
+  cv::GaussianBlur(noise, noise, cv::Size(0, 0), 3.0);
+  cv::normalize(noise, noise, 60, 100, cv::NORM_MINMAX);
+  noise.convertTo(grey, CV_8UC1);
+  return grey;
+}
+
+cv::Mat jpegRoundTrip(const cv::Mat& image, int quality) {
+  std::vector<uchar> bytes;
+  cv::imencode(".jpg", image, bytes, {cv::IMWRITE_JPEG_QUALITY, quality});
+  return cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+}
+
+/// Every row's steps of a mono image.
+PhaseSteps columnSteps(const cv::Mat& grey) {
+  PhaseSteps steps;
+  std::vector<uchar> valid(static_cast<size_t>(grey.cols));
+  for (int y = 0; y < grey.rows; ++y) {
+    const uchar* row = grey.ptr<uchar>(y);
+    for (int x = 0; x < grey.cols; ++x) valid[static_cast<size_t>(x)] = row[x] != 0;
+    steps.addRow(row, valid.data(), grey.cols);
+  }
+  return steps;
+}
+
+TEST(BlockGrid, ARowsStepsAreThoseOfEachPairOfNeighbours) {
+  // The vectorised row against one add() per step, with invalid pixels and
+  // steps above the flat limit among them, on widths around whole blocks.
+  cv::RNG rng(5);
+  for (int width : {3, 8, 9, 17, 64, 71}) {
+    std::vector<uchar> grey(static_cast<size_t>(width)), valid(static_cast<size_t>(width));
+    for (int x = 0; x < width; ++x) {
+      grey[static_cast<size_t>(x)] = static_cast<uchar>(rng.uniform(0, 40));
+      valid[static_cast<size_t>(x)] = rng.uniform(0, 5) != 0;
+    }
+    PhaseSteps row, one_by_one;
+    row.addRow(grey.data(), valid.data(), width);
+    for (int x = 1; x < width; ++x) {
+      one_by_one.add(x % 8, grey[static_cast<size_t>(x)], grey[static_cast<size_t>(x - 1)],
+                     valid[static_cast<size_t>(x)] && valid[static_cast<size_t>(x - 1)]);
+    }
+    for (int k = 0; k < 8; ++k) {
+      EXPECT_EQ(row.sum[k], one_by_one.sum[k]) << width << " " << k;
+      EXPECT_EQ(row.count[k], one_by_one.count[k]) << width << " " << k;
+    }
+  }
+}
+
+TEST(BlockGrid, TheViewsPhasesGiveTheDisparityWhereTheirSeamsAlign) {
+  const cv::Mat coded = jpegRoundTrip(weakTexture(336, 240, 3), 75);
+  const PhaseSteps left = columnSteps(coded.colRange(0, 320));
+  EXPECT_GE(left.contrast(), 1.2);
+  EXPECT_EQ(left.strongestPhase(), 0);  // seams between columns 8 i - 1 and 8 i
+  EXPECT_EQ(alignedGridDisparity(left, left), 0);
+  // Cropped by 3 columns after coding: seams at x = 8 i - 3, phase 5; the
+  // left's at 8 i meet them at d = 8 i - (8 j - 3), 3 modulo 8.
+  const PhaseSteps right = columnSteps(coded.colRange(3, 323));
+  EXPECT_EQ(right.strongestPhase(), 5);
+  EXPECT_EQ(alignedGridDisparity(left, right), 3);
+  EXPECT_EQ(alignedGridDisparity(right, left), 5);
+}
+
+TEST(BlockGrid, AnUncodedViewHasNoGridToAlign) {
+  const cv::Mat plain = weakTexture(320, 240, 3);
+  const PhaseSteps coded = columnSteps(jpegRoundTrip(plain, 75));
+  const PhaseSteps uncoded = columnSteps(plain);
+  EXPECT_LT(uncoded.contrast(), 1.1);
+  EXPECT_EQ(alignedGridDisparity(coded, uncoded), -1);
+  EXPECT_EQ(alignedGridDisparity(uncoded, coded), -1);
+  EXPECT_EQ(alignedGridDisparity(PhaseSteps(), PhaseSteps()), -1);  // no steps at all
+}
+
+TEST(BlockGrid, ThePyramidGathersTheStepsOnlyWhenAsked) {
+  const cv::Mat coded = jpegRoundTrip(weakTexture(320, 240, 4), 75);
+  for (int first_searched_level : {0, 1}) {
+    bdis::detail::StereoPyramid pyramid;
+    pyramid.build(coded, coded, 3, first_searched_level);
+    EXPECT_EQ(alignedGridDisparity(pyramid.columnSteps(true), pyramid.columnSteps(false)), -1);
+    pyramid.build(coded, coded, 3, first_searched_level, 256, /*probe_block_grid=*/true);
+    EXPECT_EQ(alignedGridDisparity(pyramid.columnSteps(true), pyramid.columnSteps(false)), 0);
+    EXPECT_GT(pyramid.columnSteps(true).count[0], 256);  // every 16th row of 240
+  }
+}
+
+TEST(BlockGridCue, LowersEstimatesNearTheAlignedDisparitiesOnly) {
+  // Level 1 (scale 2), grids aligned at 3 modulo 8, reach 1 px, doubt 0.75:
+  // an estimate at 11 or 19 input px keeps a quarter, at half a px from them
+  // five eighths, a px or more away all of it.
+  const std::vector<float> input_px = {11.f, 19.f, 3.f, 10.5f, 19.5f, 12.f, 10.f, 15.f, 7.f, 0.f};
+  const std::vector<float> expected = {0.25f, 0.25f, 0.25f, 0.625f, 0.625f, 1.f, 1.f, 1.f, 1.f, 1.f};
+  cv::Mat1f d(1, static_cast<int>(input_px.size()) + 1), c(d.size(), 0.8f);
+  for (size_t i = 0; i < input_px.size(); ++i) d(0, static_cast<int>(i)) = input_px[i] / 2.f;
+  d(0, d.cols - 1) = kNoDisparity;
+  bdis::detail::applyBlockGridCue(d, 2.f, 3, 1.f, 0.75f, c);
+  for (size_t i = 0; i < expected.size(); ++i) EXPECT_NEAR(c(0, static_cast<int>(i)), 0.8f * expected[i], 1e-6f) << i;
+  EXPECT_EQ(c(0, d.cols - 1), 0.8f);  // no estimate
+  // Views without a grid: nothing changes.
+  const cv::Mat1f before = c.clone();
+  bdis::detail::applyBlockGridCue(d, 2.f, -1, 1.f, 0.75f, c);
+  EXPECT_EQ(cv::norm(c, before, cv::NORM_INF), 0.0);
+}
+
+}  // namespace
