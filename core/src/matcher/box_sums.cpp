@@ -88,6 +88,15 @@ void subtractRow(int w, const float* __restrict row, float* __restrict sum) {
 }
 
 BDIS_ROW_LOOP
+void valuesAtEstimatesRow(int w, const float* __restrict disparity, const float* __restrict values,
+                          float* __restrict value, float* __restrict count) {
+  for (int x = 0; x < w; ++x) {
+    value[x] = disparity[x] >= 0.f ? values[x] : 0.f;
+    count[x] = disparity[x] >= 0.f ? 1.f : 0.f;
+  }
+}
+
+BDIS_ROW_LOOP
 void boxMeanRow(int w, const float* __restrict sum, const float* __restrict count, float* __restrict mean) {
   for (int x = 0; x < w; ++x) mean[x] = count[x] > 0.5f ? sum[x] / std::max(count[x], 1.f) : kNoDisparity;
 }

@@ -15,6 +15,11 @@ namespace detail {
 void addRow(int w, const float* row, float* sum);
 void subtractRow(int w, const float* row, float* sum);
 
+/// A row to box-sum over the estimates (disparity >= 0): value[x] =
+/// values[x] and count[x] = 1 where there is one, 0 and 0 where there is
+/// none. `values` may be the disparity itself.
+void valuesAtEstimatesRow(int w, const float* disparity, const float* values, float* value, float* count);
+
 /// mean[x] = sum[x] / count[x] where a box holds an estimate (count >= 1),
 /// kNoDisparity where it holds none.
 void boxMeanRow(int w, const float* sum, const float* count, float* mean);

@@ -9,17 +9,6 @@ namespace bdis {
 namespace detail {
 namespace {
 
-/// The box sums' inputs of one row: each estimate's confidence, 0 where
-/// none, and 1 where there is one.
-BDIS_ROW_LOOP
-void confidenceRows(int w, const float* __restrict disparity, const float* __restrict confidence,
-                    float* __restrict value, float* __restrict count) {
-  for (int x = 0; x < w; ++x) {
-    value[x] = disparity[x] >= 0.f ? confidence[x] : 0.f;
-    count[x] = disparity[x] >= 0.f ? 1.f : 0.f;
-  }
-}
-
 /// c^(3/4) m^(1/4) = sqrt(c sqrt(c m)): two square roots, no pow per pixel.
 BDIS_ROW_LOOP
 void pooledRow(int w, const float* __restrict sum, const float* __restrict count,
@@ -42,7 +31,7 @@ void NeighbourhoodCue::apply(const cv::Mat1f& disparity, int patch_px, cv::Mat1f
   // confidences as the other cues left them.
   sums_.begin(w, h, std::max(1, patch_px / 2));
   for (int y = 0; y < h; ++y) {
-    confidenceRows(w, disparity[y], confidence[y], sums_.paddedA(), sums_.paddedB());
+    valuesAtEstimatesRow(w, disparity[y], confidence[y], sums_.paddedA(), sums_.paddedB());
     sums_.sumRow(y);
   }
   for (int y = 0; y < h; ++y) {

@@ -10,16 +10,6 @@ namespace bdis {
 namespace detail {
 namespace {
 
-/// The box sums' inputs of one row: each estimate, 0 where none, and 1
-/// where there is one.
-BDIS_ROW_LOOP
-void estimateRows(int w, const float* __restrict disparity, float* __restrict value, float* __restrict count) {
-  for (int x = 0; x < w; ++x) {
-    value[x] = disparity[x] >= 0.f ? disparity[x] : 0.f;
-    count[x] = disparity[x] >= 0.f ? 1.f : 0.f;
-  }
-}
-
 BDIS_ROW_LOOP
 void squaredRow(int w, const float* __restrict values, float* __restrict squares) {
   for (int x = 0; x < w; ++x) squares[x] = values[x] * values[x];
@@ -86,7 +76,7 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
   float* value = sums_.paddedA();
   float* count = sums_.paddedB();
   for (int y = 0; y < h; ++y) {
-    estimateRows(w, disparity[y], value, count);
+    valuesAtEstimatesRow(w, disparity[y], disparity[y], value, count);
     sums_.sumRow(y);
   }
   for (int y = 0; y < h; ++y) {
