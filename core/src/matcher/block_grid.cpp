@@ -13,17 +13,6 @@ namespace {
 constexpr int kMaxFlatStep = 16;  // grey levels: steps above are texture or edges, not block seams
 constexpr long kMinStepsPerPhase = 256;
 
-}  // namespace
-
-void PhaseSteps::add(int phase, int a, int b, bool both_valid) {
-  const int step = std::abs(a - b);
-  if (!both_valid || step > kMaxFlatStep) return;
-  sum[phase] += step;
-  count[phase] += 1;
-}
-
-namespace {
-
 /// The flat steps of one row into one lane per phase; x from 1 to width - 1.
 /// Whole blocks at a time, branch-free, so the compiler vectorises them.
 BDIS_ROW_LOOP
@@ -61,6 +50,13 @@ void addRowSteps(const uchar* __restrict grey, const uchar* __restrict valid, in
 }
 
 }  // namespace
+
+void PhaseSteps::add(int phase, int a, int b, bool both_valid) {
+  const int step = std::abs(a - b);
+  if (!both_valid || step > kMaxFlatStep) return;
+  sum[phase] += step;
+  count[phase] += 1;
+}
 
 void PhaseSteps::addRow(const uchar* grey, const uchar* valid, int width) {
   int lane_sum[kCodecBlock] = {}, lane_count[kCodecBlock] = {};
