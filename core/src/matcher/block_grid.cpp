@@ -14,18 +14,19 @@ constexpr int kMaxFlatStep = 16;  // grey levels: steps above are texture or edg
 constexpr long kMinStepsPerPhase = 256;
 
 /// The flat steps of one row into one lane per phase; x from 1 to width - 1.
-/// Whole blocks at a time, branch-free, so the compiler vectorises them.
+/// Whole blocks at a time, branch-free, so the compiler vectorises them; the
+/// columns before the first whole block and after the last one by one.
 BDIS_ROW_LOOP
 void addRowSteps(const uchar* __restrict grey, const uchar* __restrict valid, int width, int* __restrict lane_sum,
                  int* __restrict lane_count) {
   int sums[kCodecBlock] = {}, counts[kCodecBlock] = {};
-  const int head = std::min(width, kCodecBlock);
-  for (int x = 1; x < head; ++x) {
+  auto one_step = [&](int x) {
     const int s = std::abs(int(grey[x]) - int(grey[x - 1]));
     const int flat = valid[x] & valid[x - 1] & int(s <= kMaxFlatStep);
-    sums[x] += s * flat;
-    counts[x] += flat;
-  }
+    sums[x % kCodecBlock] += s * flat;
+    counts[x % kCodecBlock] += flat;
+  };
+  for (int x = 1; x < std::min(width, kCodecBlock); ++x) one_step(x);
   int x = kCodecBlock;
   for (; x + kCodecBlock <= width; x += kCodecBlock) {
     const uchar* g = grey + x;
@@ -37,16 +38,9 @@ void addRowSteps(const uchar* __restrict grey, const uchar* __restrict valid, in
       counts[k] += flat;
     }
   }
-  for (; x < width; ++x) {
-    const int s = std::abs(int(grey[x]) - int(grey[x - 1]));
-    const int flat = valid[x] & valid[x - 1] & int(s <= kMaxFlatStep);
-    sums[x % kCodecBlock] += s * flat;
-    counts[x % kCodecBlock] += flat;
-  }
-  for (int k = 0; k < kCodecBlock; ++k) {
-    lane_sum[k] = sums[k];
-    lane_count[k] = counts[k];
-  }
+  for (; x < width; ++x) one_step(x);
+  std::copy(sums, sums + kCodecBlock, lane_sum);
+  std::copy(counts, counts + kCodecBlock, lane_count);
 }
 
 }  // namespace
