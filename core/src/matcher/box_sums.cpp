@@ -101,6 +101,12 @@ void boxMeanRow(int w, const float* __restrict sum, const float* __restrict coun
   for (int x = 0; x < w; ++x) mean[x] = count[x] > 0.5f ? sum[x] / std::max(count[x], 1.f) : kNoDisparity;
 }
 
+void boxSumsAlongLine(int n, int half, const float* values, std::vector<float>& padded, float* out) {
+  padded.assign(static_cast<size_t>(n + 2 * half), 0.f);
+  std::copy(values, values + n, padded.begin() + half);
+  boxRow(n, 2 * half + 1, padded.data(), out);
+}
+
 BDIS_ROW_LOOP
 void blocksToPixels(int w, const float* __restrict blocks, float* __restrict pixels) {
   const int pairs = w / 2;

@@ -24,6 +24,11 @@ void valuesAtEstimatesRow(int w, const float* disparity, const float* values, fl
 /// kNoDisparity where it holds none.
 void boxMeanRow(int w, const float* sum, const float* count, float* mean);
 
+/// out[i] = the sum of values[j] over |j - i| <= half, j in 0..n-1: a box
+/// along a line, clipped to it, summed as BoxSums sums a row. `padded`
+/// is scratch (n + 2 half values), kept for the next call.
+void boxSumsAlongLine(int n, int half, const float* values, std::vector<float>& padded, float* out);
+
 /// A row of 2 x 2 blocks' values onto the w pixels of a block row: pixel x
 /// gets block x / 2 (`blocks` holds at least (w + 1) / 2 values).
 void blocksToPixels(int w, const float* blocks, float* pixels);

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "box_sums.hpp"            // boxMeanRow
+#include "box_sums.hpp"  // boxSumsAlongLine, boxMeanRow
 #include "confidence.hpp"
 
 namespace bdis {
@@ -13,10 +13,10 @@ namespace {
 /// Means of the estimates in boxes of side 2 half + 1 (clipped to the image)
 /// centred on row `line` (along_rows) or column `line` (!along_rows), one per
 /// position along it; kNoDisparity where a box holds none. `sum`, `count`,
-/// `box_sum` and `box_count` are scratch.
+/// `box_sum`, `box_count` and `padded` are scratch.
 void boxMeansAlongLine(const cv::Mat1f& disparity, bool along_rows, int line, int half, std::vector<float>& sum,
                        std::vector<float>& count, std::vector<float>& box_sum, std::vector<float>& box_count,
-                       std::vector<float>& mean) {
+                       std::vector<float>& padded, std::vector<float>& mean) {
   const int n = along_rows ? disparity.cols : disparity.rows;
   const int across = along_rows ? disparity.rows : disparity.cols;
   sum.assign(static_cast<size_t>(n), 0.f);
@@ -44,27 +44,12 @@ void boxMeansAlongLine(const cv::Mat1f& disparity, bool along_rows, int line, in
       count[static_cast<size_t>(i)] = c;
     }
   }
-  // The same box along the line: a running sum of the cross-sums.
+  // The same box along the line.
   box_sum.resize(static_cast<size_t>(n));
   box_count.resize(static_cast<size_t>(n));
   mean.resize(static_cast<size_t>(n));
-  float s = 0.f, c = 0.f;
-  for (int i = 0; i < std::min(half, n); ++i) {
-    s += sum[static_cast<size_t>(i)];
-    c += count[static_cast<size_t>(i)];
-  }
-  for (int i = 0; i < n; ++i) {
-    if (i + half < n) {
-      s += sum[static_cast<size_t>(i + half)];
-      c += count[static_cast<size_t>(i + half)];
-    }
-    if (i - half - 1 >= 0) {
-      s -= sum[static_cast<size_t>(i - half - 1)];
-      c -= count[static_cast<size_t>(i - half - 1)];
-    }
-    box_sum[static_cast<size_t>(i)] = s;
-    box_count[static_cast<size_t>(i)] = c;
-  }
+  boxSumsAlongLine(n, half, sum.data(), padded, box_sum.data());
+  boxSumsAlongLine(n, half, count.data(), padded, box_count.data());
   boxMeanRow(n, box_sum.data(), box_count.data(), mean.data());
 }
 
@@ -73,9 +58,10 @@ void boxMeansAlongLine(const cv::Mat1f& disparity, bool along_rows, int line, in
 void ImageBorderCue::edgeSlopes(const cv::Mat1f& disparity, bool along_rows, int edge, int inward, int patch_px,
                                 std::vector<float>& slope) {
   const int half = patch_px / 2;
-  boxMeansAlongLine(disparity, along_rows, edge + inward * half, half, sum_, count_, box_sum_, box_count_, near_);
+  boxMeansAlongLine(disparity, along_rows, edge + inward * half, half, sum_, count_, box_sum_, box_count_, padded_,
+                    near_);
   boxMeansAlongLine(disparity, along_rows, edge + inward * (patch_px + half), half, sum_, count_, box_sum_,
-                    box_count_, far_);
+                    box_count_, padded_, far_);
   slope.resize(near_.size());
   for (size_t i = 0; i < slope.size(); ++i) {
     const bool both = near_[i] >= 0.f && far_[i] >= 0.f;  // a box without estimates: no slope

@@ -32,7 +32,7 @@ class ImageBorderCue {
   void edgeSlopes(const cv::Mat1f& disparity, bool along_rows, int edge, int inward, int patch_px,
                   std::vector<float>& slope);
 
-  std::vector<float> sum_, count_, box_sum_, box_count_;  ///< sums across and along a line
+  std::vector<float> sum_, count_, box_sum_, box_count_, padded_;  ///< sums across and along a line
   std::vector<float> near_, far_;                         ///< box means along a line
   std::vector<float> top_, bottom_, left_, right_;  ///< slope per position along each edge
 };
