@@ -121,6 +121,7 @@ void BoxSums::begin(int w, int h, int r, bool with_b) {
   w_ = w;
   h_ = h;
   r_ = r;
+  ring_rows_ = 2 * r + 2;
   with_b_ = with_b;
   // Only the padding is set here; every other element is written per row.
   padded_a_.resize(static_cast<size_t>(w + 2 * r));
@@ -129,33 +130,36 @@ void BoxSums::begin(int w, int h, int r, bool with_b) {
     std::fill(padded->begin(), padded->begin() + r, 0.f);
     std::fill(padded->end() - r, padded->end(), 0.f);
   }
-  row_a_.create(h, w);
-  if (with_b) row_b_.create(h, w);
+  ring_a_.create(ring_rows_, w);
+  if (with_b) ring_b_.create(ring_rows_, w);
   column_a_.resize(static_cast<size_t>(w));
   column_b_.resize(static_cast<size_t>(w));
 }
 
 void BoxSums::sumRow(int y) {
-  boxRow(w_, 2 * r_ + 1, padded_a_.data(), row_a_[y]);
-  if (with_b_) boxRow(w_, 2 * r_ + 1, padded_b_.data(), row_b_[y]);
+  boxRow(w_, 2 * r_ + 1, padded_a_.data(), ring_a_[y % ring_rows_]);
+  if (with_b_) boxRow(w_, 2 * r_ + 1, padded_b_.data(), ring_b_[y % ring_rows_]);
 }
 
 void BoxSums::nextColumnSums(int y, const float*& a, const float*& b) {
+  // The rows added: y + r, and at the start the r above it; the row
+  // subtracted, y - r - 1, was filled at most 2r + 1 rows before y + r, so
+  // the ring still holds it.
   if (y == 0) {
     std::fill(column_a_.begin(), column_a_.end(), 0.f);
     std::fill(column_b_.begin(), column_b_.end(), 0.f);
     for (int j = 0; j < std::min(h_, r_); ++j) {
-      addRow(w_, row_a_[j], column_a_.data());
-      if (with_b_) addRow(w_, row_b_[j], column_b_.data());
+      addRow(w_, ring_a_[j % ring_rows_], column_a_.data());
+      if (with_b_) addRow(w_, ring_b_[j % ring_rows_], column_b_.data());
     }
   }
   if (y + r_ < h_) {
-    addRow(w_, row_a_[y + r_], column_a_.data());
-    if (with_b_) addRow(w_, row_b_[y + r_], column_b_.data());
+    addRow(w_, ring_a_[(y + r_) % ring_rows_], column_a_.data());
+    if (with_b_) addRow(w_, ring_b_[(y + r_) % ring_rows_], column_b_.data());
   }
   if (y - r_ - 1 >= 0) {
-    subtractRow(w_, row_a_[y - r_ - 1], column_a_.data());
-    if (with_b_) subtractRow(w_, row_b_[y - r_ - 1], column_b_.data());
+    subtractRow(w_, ring_a_[(y - r_ - 1) % ring_rows_], column_a_.data());
+    if (with_b_) subtractRow(w_, ring_b_[(y - r_ - 1) % ring_rows_], column_b_.data());
   }
   a = column_a_.data();
   b = with_b_ ? column_b_.data() : nullptr;

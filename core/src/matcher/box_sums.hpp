@@ -48,28 +48,45 @@ class BlockEstimates {
 };
 
 /// The sums of two maps A and B over a (2r+1) x (2r+1) box around each pixel,
-/// the box clipped to the map. Use: begin(); for each row y, fill paddedA()
-/// and paddedB() at columns 0..w-1 and call sumRow(y); then for each row y in
-/// order, nextColumnSums(y) gives the box sums of row y. With begin(..., false)
-/// only A is summed (paddedB() is not to be used, its sums come back null).
+/// the box clipped to the map, in one sweep down the rows: begin(), then
+/// sweep(fill, use). `fill(y, a, b)` writes row y of A (and of B) at columns
+/// 0..w-1 of `a` and `b` (r zero columns lie before and after them); `use(y,
+/// sum_a, sum_b)` gets the box sums of row y. Rows are filled in order, each
+/// once; row y is used once rows up to y + r are filled, so every row is
+/// filled before it is used (`use` may change the maps `fill` reads, in rows
+/// it is handed). Only 2r + 2 rows of horizontal sums are kept. With
+/// begin(..., false) only A is summed (`b` and `sum_b` are null).
 class BoxSums {
  public:
   void begin(int w, int h, int r, bool with_b = true);
-  /// Column 0 of the row scratch: r zero columns lie before it and after w.
-  float* paddedA() { return padded_a_.data() + r_; }
-  float* paddedB() { return padded_b_.data() + r_; }
-  /// The horizontal box sums of the scratch rows become row y's.
+
+  template <class Fill, class Use>
+  void sweep(Fill&& fill, Use&& use) {
+    const float *sum_a, *sum_b;
+    for (int y = 0; y < h_ + r_; ++y) {
+      if (y < h_) {
+        fill(y, padded_a_.data() + r_, with_b_ ? padded_b_.data() + r_ : nullptr);
+        sumRow(y);
+      }
+      if (y >= r_) {
+        nextColumnSums(y - r_, sum_a, sum_b);
+        use(y - r_, sum_a, sum_b);
+      }
+    }
+  }
+
+ private:
+  /// The horizontal box sums of the filled row become row y's.
   void sumRow(int y);
   /// The box sums of row y, for y = 0, 1, ..., h-1 in turn: the vertical box
   /// slides down one row in, one row out (counts stay exact; the sums'
-  /// rounding is far below what a cue resolves). Valid until the next call.
+  /// rounding is far below what a cue resolves).
   void nextColumnSums(int y, const float*& a, const float*& b);
 
- private:
-  int w_ = 0, h_ = 0, r_ = 0;
+  int w_ = 0, h_ = 0, r_ = 0, ring_rows_ = 1;
   bool with_b_ = true;
   std::vector<float> padded_a_, padded_b_;  ///< a row, r zeros each side
-  cv::Mat1f row_a_, row_b_;                 ///< the rows' horizontal box sums
+  cv::Mat1f ring_a_, ring_b_;               ///< the last 2r + 2 rows' horizontal sums
   std::vector<float> column_a_, column_b_;  ///< one row of box sums
 };
 

@@ -29,23 +29,17 @@ void ConsensusCue::apply(const cv::Mat1f& disparity, int patch_px, float halving
   mean_.resize(static_cast<size_t>(w));
   // A box of patch_px blocks each way: two patch sides, in pixels.
   sums_.begin(bw, bh, patch_px);
-  float* block_sum = sums_.paddedA();
-  float* block_count = sums_.paddedB();
-  for (int by = 0; by < bh; ++by) {
-    blocks_.row(disparity, by, bw, block_sum, block_count);
-    sums_.sumRow(by);
-  }
   const float inv_halving_sq = 1.f / (halving * halving);
-  for (int by = 0; by < bh; ++by) {
-    const float *box_sum, *box_count;
-    sums_.nextColumnSums(by, box_sum, box_count);
-    // count >= 1 wherever the block holds an estimate; elsewhere the mean is not read.
-    boxMeanRow(bw, box_sum, box_count, block_mean_.data());
-    blocksToPixels(w, block_mean_.data(), mean_.data());
-    for (int y = 2 * by; y < std::min(2 * by + 2, h); ++y) {
-      consensusRow(w, mean_.data(), disparity[y], inv_halving_sq, confidence[y]);
-    }
-  }
+  sums_.sweep(
+      [&](int by, float* block_sum, float* block_count) { blocks_.row(disparity, by, bw, block_sum, block_count); },
+      [&](int by, const float* box_sum, const float* box_count) {
+        // count >= 1 wherever the block holds an estimate; elsewhere the mean is not read.
+        boxMeanRow(bw, box_sum, box_count, block_mean_.data());
+        blocksToPixels(w, block_mean_.data(), mean_.data());
+        for (int y = 2 * by; y < std::min(2 * by + 2, h); ++y) {
+          consensusRow(w, mean_.data(), disparity[y], inv_halving_sq, confidence[y]);
+        }
+      });
 }
 
 }  // namespace detail

@@ -27,18 +27,12 @@ void pooledRow(int w, const float* __restrict sum, const float* __restrict count
 void NeighbourhoodCue::apply(const cv::Mat1f& disparity, int patch_px, cv::Mat1f& confidence) {
   CV_Assert(confidence.size() == disparity.size());
   const int w = disparity.cols, h = disparity.rows;
-  // All rows are summed before any is changed: the box reads the
-  // confidences as the other cues left them.
+  // Every row is summed before it is changed (BoxSums::sweep): the box
+  // reads the confidences as the other cues left them.
   sums_.begin(w, h, std::max(1, patch_px / 2));
-  for (int y = 0; y < h; ++y) {
-    valuesAtEstimatesRow(w, disparity[y], confidence[y], sums_.paddedA(), sums_.paddedB());
-    sums_.sumRow(y);
-  }
-  for (int y = 0; y < h; ++y) {
-    const float *sum, *count;
-    sums_.nextColumnSums(y, sum, count);
-    pooledRow(w, sum, count, disparity[y], confidence[y]);
-  }
+  sums_.sweep(
+      [&](int y, float* value, float* count) { valuesAtEstimatesRow(w, disparity[y], confidence[y], value, count); },
+      [&](int y, const float* sum, const float* count) { pooledRow(w, sum, count, disparity[y], confidence[y]); });
 }
 
 }  // namespace detail

@@ -73,28 +73,15 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
 
   // The box sums of the estimates (A) and of their count (B).
   sums_.begin(w, h, r);
-  float* value = sums_.paddedA();
-  float* count = sums_.paddedB();
-  for (int y = 0; y < h; ++y) {
-    valuesAtEstimatesRow(w, disparity[y], disparity[y], value, count);
-    sums_.sumRow(y);
-  }
-  for (int y = 0; y < h; ++y) {
-    const float *sum, *n;
-    sums_.nextColumnSums(y, sum, n);
-    boxMeanRow(w, sum, n, mean_[y] + r);
-  }
+  sums_.sweep(
+      [&](int y, float* value, float* count) { valuesAtEstimatesRow(w, disparity[y], disparity[y], value, count); },
+      [&](int y, const float* sum, const float* n) { boxMeanRow(w, sum, n, mean_[y] + r); });
 
   // The box sums of the squared gradient; the clipped box's area is
   // box_columns_[x] * clippedSpan(y), exact in float.
   gradient_sums_.begin(w, h, r, /*with_b=*/false);
-  float* gradient_sq = gradient_sums_.paddedA();
   box_columns_.resize(static_cast<size_t>(w));
   for (int x = 0; x < w; ++x) box_columns_[static_cast<size_t>(x)] = clippedSpan(x, w, r);
-  for (int y = 0; y < h; ++y) {
-    squaredRow(w, gradient[y], gradient_sq);
-    gradient_sums_.sumRow(y);
-  }
 
   // agreement(|grad D| * patch_px, halving) = agreement(|grad D|, halving / patch_px),
   // and likewise for the misfit |grad D| * patch_px * g.
@@ -104,13 +91,13 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
   const float inv_misfit_halving_sq = 1.f / (slope_gradient_halving * slope_gradient_halving);
   const float inv_bend_halving_sq = 1.f / (bend_halving * bend_halving);
   const float* none = mean_[h] + r;
-  for (int y = 0; y < h; ++y) {
-    const float *gradient_sq_sum, *unused;
-    gradient_sums_.nextColumnSums(y, gradient_sq_sum, unused);
-    slantRow(w, r, y >= r ? mean_[y - r] + r : none, mean_[y] + r, y + r < h ? mean_[y + r] + r : none,
-             disparity[y], inv_halving_sq, gradient_sq_sum, box_columns_.data(), clippedSpan(y, h, r),
-             inv_misfit_halving_sq, inv_bend_halving_sq, confidence[y]);
-  }
+  gradient_sums_.sweep([&](int y, float* gradient_sq, float*) { squaredRow(w, gradient[y], gradient_sq); },
+                       [&](int y, const float* gradient_sq_sum, const float*) {
+                         slantRow(w, r, y >= r ? mean_[y - r] + r : none, mean_[y] + r,
+                                  y + r < h ? mean_[y + r] + r : none, disparity[y], inv_halving_sq,
+                                  gradient_sq_sum, box_columns_.data(), clippedSpan(y, h, r), inv_misfit_halving_sq,
+                                  inv_bend_halving_sq, confidence[y]);
+                       });
 }
 
 }  // namespace detail

@@ -43,18 +43,14 @@ void SupportCue::apply(const cv::Mat1f& disparity, const cv::Mat1b& valid, const
   CV_Assert(valid.size() == disparity.size() && confidence.size() == disparity.size());
   const int w = disparity.cols, h = disparity.rows;
   sums_.begin(w, h, std::max(1, patch_px - 1));
-  float* estimates = sums_.paddedA();
-  float* valid_pixels = sums_.paddedB();
-  for (int y = 0; y < h; ++y) {
-    indicatorRows(w, disparity[y], valid[y], grey[y], estimates, valid_pixels);
-    sums_.sumRow(y);
-  }
   const float inv_halving_sq = 1.f / (halving_share * halving_share);
-  for (int y = 0; y < h; ++y) {
-    const float *n_estimates, *n_valid;
-    sums_.nextColumnSums(y, n_estimates, n_valid);
-    supportRow(w, n_estimates, n_valid, disparity[y], inv_halving_sq, confidence[y]);
-  }
+  sums_.sweep(
+      [&](int y, float* estimates, float* valid_pixels) {
+        indicatorRows(w, disparity[y], valid[y], grey[y], estimates, valid_pixels);
+      },
+      [&](int y, const float* n_estimates, const float* n_valid) {
+        supportRow(w, n_estimates, n_valid, disparity[y], inv_halving_sq, confidence[y]);
+      });
 }
 
 }  // namespace detail

@@ -50,7 +50,8 @@ TEST(BoxSums, AlongALineCountsTheOnesInTheBox) {
 
 // The 2-D sums slide down the rows (one row in, one out), so they may round
 // differently from a sum in order, but far below what a cue resolves; the
-// counts (small integers) stay exact.
+// counts (small integers) stay exact. Radii 12 and 30 make boxes taller than
+// the map (23 rows).
 TEST(BoxSums, TwoMapsOverTheClippedBoxes) {
   const int w = 37, h = 23;
   cv::Mat1f a(h, w), b(h, w);
@@ -59,29 +60,32 @@ TEST(BoxSums, TwoMapsOverTheClippedBoxes) {
   rng.fill(b, cv::RNG::UNIFORM, 0.f, 2.f);
   cv::Mat1f ones_b = b.clone();
   for (float& v : ones_b) v = std::floor(v);  // 0 or 1: a count
-  for (int r : {1, 4, 7, 12}) {
+  for (int r : {1, 4, 7, 12, 30}) {
     BoxSums sums;
     sums.begin(w, h, r);
-    for (int y = 0; y < h; ++y) {
-      std::copy(a[y], a[y] + w, sums.paddedA());
-      std::copy(ones_b[y], ones_b[y] + w, sums.paddedB());
-      sums.sumRow(y);
-    }
-    for (int y = 0; y < h; ++y) {
-      const float *sa, *sb;
-      sums.nextColumnSums(y, sa, sb);
-      for (int x = 0; x < w; ++x) {
-        double expected_a = 0.0, expected_b = 0.0;
-        for (int v = std::max(0, y - r); v <= std::min(h - 1, y + r); ++v) {
-          for (int u = std::max(0, x - r); u <= std::min(w - 1, x + r); ++u) {
-            expected_a += a(v, u);
-            expected_b += ones_b(v, u);
+    int filled = 0, used = 0;
+    sums.sweep(
+        [&](int y, float* row_a, float* row_b) {
+          ASSERT_EQ(y, filled++);
+          std::copy(a[y], a[y] + w, row_a);
+          std::copy(ones_b[y], ones_b[y] + w, row_b);
+        },
+        [&](int y, const float* sa, const float* sb) {
+          ASSERT_EQ(y, used++);
+          ASSERT_EQ(filled, std::min(h, y + r + 1)) << "row " << y << " is used once the rows of its box are filled";
+          for (int x = 0; x < w; ++x) {
+            double expected_a = 0.0, expected_b = 0.0;
+            for (int v = std::max(0, y - r); v <= std::min(h - 1, y + r); ++v) {
+              for (int u = std::max(0, x - r); u <= std::min(w - 1, x + r); ++u) {
+                expected_a += a(v, u);
+                expected_b += ones_b(v, u);
+              }
+            }
+            ASSERT_NEAR(sa[x], expected_a, 1e-3) << "r " << r << " at " << x << ", " << y;
+            ASSERT_EQ(sb[x], static_cast<float>(expected_b)) << "r " << r << " at " << x << ", " << y;
           }
-        }
-        ASSERT_NEAR(sa[x], expected_a, 1e-3) << "r " << r << " at " << x << ", " << y;
-        ASSERT_EQ(sb[x], static_cast<float>(expected_b)) << "r " << r << " at " << x << ", " << y;
-      }
-    }
+        });
+    EXPECT_EQ(used, h);
   }
 }
 
