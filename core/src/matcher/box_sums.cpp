@@ -165,5 +165,19 @@ void BoxSums::nextColumnSums(int y, const float*& a, const float*& b) {
   b = with_b_ ? column_b_.data() : nullptr;
 }
 
+void boxMeansOfEstimates(const cv::Mat1f& disparity, int r, BoxSums& sums, cv::Mat1f& mean) {
+  const int w = disparity.cols, h = disparity.rows;
+  mean.create(h + 1, w + 2 * r);
+  for (int y = 0; y < h; ++y) {
+    std::fill(mean[y], mean[y] + r, kNoDisparity);
+    std::fill(mean[y] + r + w, mean[y] + w + 2 * r, kNoDisparity);
+  }
+  std::fill(mean[h], mean[h] + w + 2 * r, kNoDisparity);  // (setTo() would allocate)
+  sums.begin(w, h, r);
+  sums.sweep(
+      [&](int y, float* value, float* count) { valuesAtEstimatesRow(w, disparity[y], disparity[y], value, count); },
+      [&](int y, const float* sum, const float* n) { boxMeanRow(w, sum, n, mean[y] + r); });
+}
+
 }  // namespace detail
 }  // namespace bdis

@@ -24,6 +24,18 @@ void valuesAtEstimatesRow(int w, const float* disparity, const float* values, fl
 /// kNoDisparity where it holds none.
 void boxMeanRow(int w, const float* sum, const float* count, float* mean);
 
+/// The derivative along one axis of box means from those `step` before and
+/// after (kNoDisparity where a box holds no estimate), times `inv_step`:
+/// central where both exist, one-sided against the centre where one does,
+/// 0 where neither does. Branch-free.
+inline float slopeAcross(float before, float centre, float after, float inv_step) {
+  const bool has_before = before >= 0.f, has_after = after >= 0.f;
+  const float hi = has_after ? after : centre;
+  const float lo = has_before ? before : centre;
+  const float halves = has_before && has_after ? 0.5f : 1.f;
+  return (hi - lo) * halves * inv_step;
+}
+
 /// out[i] = the sum of values[j] over |j - i| <= half, j in 0..n-1: a box
 /// along a line, clipped to it, summed as BoxSums sums a row. `padded`
 /// is scratch (n + 2 half values), kept for the next call.
@@ -89,6 +101,14 @@ class BoxSums {
   cv::Mat1f ring_a_, ring_b_;               ///< the last 2r + 2 rows' horizontal sums
   std::vector<float> column_a_, column_b_;  ///< one row of box sums
 };
+
+/// The mean of the estimates of `disparity` (>= 0) in the (2r+1) x (2r+1)
+/// box around each pixel, clipped to the map, into `mean`: h + 1 rows of
+/// w + 2r columns, pixel (x, y) at mean(y, x + r); kNoDisparity where a box
+/// holds no estimate, in the r columns each side and in the last row, which
+/// stands in for the rows beyond the map. Sums through `sums`; both buffers
+/// are kept for the next frame of the same size.
+void boxMeansOfEstimates(const cv::Mat1f& disparity, int r, BoxSums& sums, cv::Mat1f& mean);
 
 }  // namespace detail
 }  // namespace bdis

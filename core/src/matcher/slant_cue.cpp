@@ -2,7 +2,6 @@
 
 #include <algorithm>
 
-#include "bdis_stereo/matcher.hpp"  // kNoDisparity
 #include "confidence.hpp"
 #include "patch_kernels.hpp"        // BDIS_ROW_LOOP
 
@@ -13,17 +12,6 @@ namespace {
 BDIS_ROW_LOOP
 void squaredRow(int w, const float* __restrict values, float* __restrict squares) {
   for (int x = 0; x < w; ++x) squares[x] = values[x] * values[x];
-}
-
-/// The derivative along one axis from the values `step` before and after:
-/// central where both exist, one-sided against the centre where one does,
-/// 0 where neither does. Branch-free.
-inline float derivative(float before, float centre, float after, float inv_step) {
-  const bool has_before = before >= 0.f, has_after = after >= 0.f;
-  const float hi = has_after ? after : centre;
-  const float lo = has_before ? before : centre;
-  const float halves = has_before && has_after ? 0.5f : 1.f;
-  return (hi - lo) * halves * inv_step;
 }
 
 /// How many of the indices i - r .. i + r lie in 0 .. n-1.
@@ -47,8 +35,8 @@ void slantRow(int w, int r, const float* __restrict above, const float* __restri
               float inv_misfit_halving_sq, float inv_bend_halving_sq, float* __restrict confidence) {
   const float inv_step = 1.f / static_cast<float>(r);
   for (int x = 0; x < w; ++x) {
-    const float gx = derivative(mean[x - r], mean[x], mean[x + r], inv_step);
-    const float gy = derivative(above[x], mean[x], below[x], inv_step);
+    const float gx = slopeAcross(mean[x - r], mean[x], mean[x + r], inv_step);
+    const float gy = slopeAcross(above[x], mean[x], below[x], inv_step);
     const float slope_sq = gx * gx + gy * gy;
     const float gradient_sq = gradient_sq_sum[x] / (box_columns[x] * box_rows);
     const float b = bend(mean[x - r], mean[x + r], above[x], below[x], mean[x]);
@@ -64,18 +52,7 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
                      float misfit_halving, float bend_halving, cv::Mat1f& confidence) {
   const int w = disparity.cols, h = disparity.rows;
   const int r = std::max(1, patch_px / 2);
-  mean_.create(h + 1, w + 2 * r);
-  for (int y = 0; y < h; ++y) {
-    std::fill(mean_[y], mean_[y] + r, kNoDisparity);
-    std::fill(mean_[y] + r + w, mean_[y] + w + 2 * r, kNoDisparity);
-  }
-  std::fill(mean_[h], mean_[h] + w + 2 * r, kNoDisparity);  // (setTo() would allocate)
-
-  // The box sums of the estimates (A) and of their count (B).
-  sums_.begin(w, h, r);
-  sums_.sweep(
-      [&](int y, float* value, float* count) { valuesAtEstimatesRow(w, disparity[y], disparity[y], value, count); },
-      [&](int y, const float* sum, const float* n) { boxMeanRow(w, sum, n, mean_[y] + r); });
+  boxMeansOfEstimates(disparity, r, sums_, mean_);
 
   // The box sums of the squared gradient; the clipped box's area is
   // box_columns_[x] * clippedSpan(y), exact in float.
