@@ -1,7 +1,7 @@
 // BDIS as a pipeline of stages (docs/method.md): the pyramid, then per level
 // patch search -> posterior -> fusion from coarse to fine, then the
-// left-right check, the confidence's cues and the upsampling to the input
-// resolution.
+// left-right check, the texture centroid correction, the refinement, the
+// confidence's cues and the upsampling to the input resolution.
 #include "bdis_stereo/matcher.hpp"
 
 #include <algorithm>
@@ -25,6 +25,7 @@
 #include "search_pass.hpp"
 #include "slant_cue.hpp"
 #include "support_cue.hpp"
+#include "texture_centroid_correction.hpp"
 #include "upsampling.hpp"
 #include "variational_refinement.hpp"
 #include "view_gain.hpp"
@@ -93,6 +94,7 @@ struct Matcher::Impl {
   detail::ImageBorderCue image_border;     ///< the image border cue
   detail::NeighbourhoodCue neighbourhood;  ///< the neighbourhood cue
   detail::VariationalRefinement refinement;
+  detail::TextureCentroidCorrection centroid_correction;
   detail::Upsampler upsampler;
 
   /// Configures the searches for frames `width` px wide; a no-op while the
@@ -167,7 +169,12 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
                            detail::kLeftRightHalvingPx * level_px, out.disparity, out.confidence,
                            P.compute_variance ? &out.variance : nullptr);
   }
-  // 5. Variational refinement of the estimates the check kept.
+  // 5. Each estimate moved from where its patches' texture is centred to
+  //    its pixel, along the surface's slope; then the variational
+  //    refinement of the estimates the check kept, which pins them to the
+  //    images where their texture can.
+  m.centroid_correction.apply(m.pyramid.level(finest), P.patch_size, detail::kCentroidShiftLimitPx * level_px,
+                              out.disparity);
   m.refinement.apply(m.pyramid.level(finest), m.left.aboveFinest(), out.disparity);
   // 6. The confidence's cues, only when the confidence is asked for: they
   //    change no disparity.

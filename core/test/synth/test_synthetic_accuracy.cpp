@@ -383,15 +383,17 @@ TEST(SyntheticBehaviour, VariationalRefinementRemovesOutliers) {
   // 0, 5 and 10 of each variant: the refinement moves estimates only, so the
   // density stays, and bad2 falls where the patches are wrong for want of a
   // slant (tube), in the dark and on flat texture.
-  // Measured (bad2 without -> with): tube 11.8 -> 9.5 %, dark_periphery 11.1
-  // -> 6.9 %, textureless 2.1 -> 0.9 %, instrument 4.6 -> 3.5 %, diffuse 1.8
-  // -> 0.8 %, specular 1.0 -> 0.7 %.
+  // Measured (bad2 without -> with): tube 9.4 -> 8.0 %, dark_periphery 10.5
+  // -> 6.7 %, textureless 1.6 -> 0.6 %, instrument 4.3 -> 3.3 %, diffuse 1.3
+  // -> 0.5 %, specular 0.8 -> 0.6 % (ratio 0.83). Before the texture
+  // centroid correction, which runs in both and removes part of the same
+  // slant's errors first: tube 11.8 -> 9.5 %, specular 1.0 -> 0.7 %.
   struct Bar {
     const char* variant;
     double max_ratio;  ///< bad2 with the refinement / without, at most
   };
   const Bar bars[] = {{"tube", 0.9},        {"dark_periphery", 0.75}, {"textureless", 0.6},
-                      {"instrument", 0.85}, {"diffuse", 0.6},         {"specular", 0.8}};
+                      {"instrument", 0.85}, {"diffuse", 0.6},         {"specular", 0.9}};
   bdis::MatcherParams with = bdis::MatcherParams::preset("accurate");
   ASSERT_GT(with.refinement_iterations, 0);
   bdis::MatcherParams without = with;
