@@ -1,6 +1,7 @@
 // The patch posterior (posterior.hpp) on hand-computed windows of costs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -9,6 +10,7 @@
 
 namespace {
 
+using bdis::detail::expOfNonPositive;
 using bdis::detail::fitWindowVariance;
 using bdis::detail::isStrictLocalMinimum;
 using bdis::detail::kMaxResidualShareOfTemplate;
@@ -43,6 +45,23 @@ TEST(Posterior, LocalMinimumTestNeedsEveryOtherCostHigher) {
   EXPECT_FALSE(isStrictLocalMinimum(far_lower, 2));  // the window's edge counts too
   const float three[] = {9.f, 4.f, 1.f, 0.f, 1.f, 4.f, 9.f};
   EXPECT_TRUE(isStrictLocalMinimum(three, 3));
+}
+
+TEST(Posterior, ExpOfNonPositiveIsWithinAnUlpOfExp) {
+  // Every exponent the likelihood can take, 0 down to past the float range,
+  // against the double-precision exp rounded to float.
+  double worst = 0.0;
+  for (int i = 0; i <= 2000000; ++i) {
+    const float x = -static_cast<float>(i) * 4.35e-5f;  // 0 .. -87
+    const double exact = std::exp(static_cast<double>(x));
+    worst = std::max(worst, std::fabs(expOfNonPositive(x) - exact) / exact);
+  }
+  EXPECT_LT(worst, 1.2e-7);  // float's ulp is 6e-8 - 1.2e-7 of the value
+  EXPECT_EQ(expOfNonPositive(0.f), 1.f);
+  // Past -87 it stops at exp(-87) instead of going denormal: still nothing beside 1.
+  EXPECT_GT(expOfNonPositive(-200.f), 0.f);
+  EXPECT_LT(expOfNonPositive(-200.f), 2e-38f);
+  EXPECT_LT(expOfNonPositive(-std::numeric_limits<float>::infinity()), 2e-38f);
 }
 
 TEST(Posterior, BoltzmannLikelihoodOverTheWindow) {
