@@ -64,6 +64,12 @@ constexpr float kEdgeHalvingPatches = 2.0f;
 /// Shortfall of an estimate carried out to the image's edge (the slope there
 /// times the distance carried) at which the confidence halves: that of the spread.
 constexpr float kImageBorderHalvingPx = kSpreadHalvingPx;
+/// Share of its confidence an estimate keeps at the image's edge itself for
+/// the start carried there, rising linearly to all of it two patch sides in.
+/// Measured on the generated scenes and the colon sequences (0.1-0.5; one
+/// patch side to four): the most confident half's wrong estimates crowd the
+/// outer two patch sides on all of them, however the surface slopes.
+constexpr float kImageBorderKeptAtEdge = 0.25f;
 /// On views whose block codec grids align at some disparity: how far from it
 /// (input px) an estimate may have been pulled there, that of the spread,
 /// and the share of its confidence taken where it sits exactly on it.

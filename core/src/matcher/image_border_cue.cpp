@@ -81,31 +81,26 @@ void ImageBorderCue::apply(const cv::Mat1f& disparity, int patch_px, float halvi
   // The distance carried: from a patch side in (where patches reach from
   // both sides) out to the pixel.
   auto carried = [p](int distance_from_edge) { return static_cast<float>(std::max(0, p - distance_from_edge)); };
+  // The one-sided start: within a patch side of the next coarser level (two
+  // here) of the edge, the start the search refined was carried out to the
+  // edge as well, whatever the slope.
+  const int reach = std::min(2 * p, std::min(w, h) / 2);
+  const float rise = (1.f - kImageBorderKeptAtEdge) / static_cast<float>(reach);
   for (int y = 0; y < h; ++y) {
+    const int from_row_edge = std::min(y, h - 1 - y);
     const float from_top = carried(y), from_bottom = carried(h - 1 - y);
     const float* d = disparity[y];
     float* c = confidence[y];
     const size_t iy = static_cast<size_t>(y);
-    auto lower = [&](int x, float shortfall) {
-      const float lowered = c[x] * agreement(shortfall * shortfall, inv_halving_sq);
-      c[x] = d[x] >= 0.f ? lowered : c[x];
-    };
-    const bool top_or_bottom = from_top > 0.f || from_bottom > 0.f;
     for (int x = 0; x < w; ++x) {
-      if (x == p) {
-        // Between the side bands only the top or bottom edge reaches.
-        if (!top_or_bottom) {
-          x = w - p - 1;
-          continue;
-        }
-        for (; x < w - p; ++x) {
-          const size_t ix = static_cast<size_t>(x);
-          lower(x, std::max(top_[ix] * from_top, bottom_[ix] * from_bottom));
-        }
-      }
+      if (x == reach && from_row_edge >= reach) x = w - reach;  // between the side bands: nothing reaches
+      const int from_edge = std::min(from_row_edge, std::min(x, w - 1 - x));
       const size_t ix = static_cast<size_t>(x);
-      lower(x, std::max({top_[ix] * from_top, bottom_[ix] * from_bottom, left_[iy] * carried(x),
-                         right_[iy] * carried(w - 1 - x)}));
+      const float shortfall = std::max({top_[ix] * from_top, bottom_[ix] * from_bottom, left_[iy] * carried(x),
+                                        right_[iy] * carried(w - 1 - x)});
+      const float start = std::min(1.f, kImageBorderKeptAtEdge + rise * static_cast<float>(from_edge));
+      const float lowered = c[x] * start * agreement(shortfall * shortfall, inv_halving_sq);
+      c[x] = d[x] >= 0.f ? lowered : c[x];
     }
   }
 }

@@ -4,7 +4,9 @@
 // that keeps rising towards the edge (the near wall at the periphery of an
 // endoscopic view) that extrapolation falls short, by about the surface's
 // slope times the distance carried. The cue lowers the confidence by that
-// expected shortfall.
+// expected shortfall, and within two patch sides of the edge (one at the
+// next coarser level, whose patches there also lay against the edge) by a
+// share for the one-sided start the search refined there.
 #pragma once
 
 #include <vector>
@@ -23,6 +25,9 @@ class ImageBorderCue {
   /// the difference of the mean estimates in two boxes of side 2 (p / 2) + 1
   /// centred p / 2 and p + p / 2 from the edge, over p (a box without
   /// estimates: no slope).
+  /// Within 2 p of the nearest edge (at most half the image's smaller side)
+  /// it is also multiplied by kImageBorderKeptAtEdge at the edge, rising
+  /// linearly to 1 at 2 p.
   /// Images under 2 p + 1 px on a side are left as they are.
   void apply(const cv::Mat1f& disparity, int patch_px, float halving, cv::Mat1f& confidence);
 
