@@ -5,6 +5,7 @@
 
 #include "box_sums.hpp"  // boxSumsAlongLine, boxMeanRow
 #include "confidence.hpp"
+#include "patch_kernels.hpp"  // BDIS_ROW_LOOP
 
 namespace bdis {
 namespace detail {
@@ -53,6 +54,22 @@ void boxMeansAlongLine(const cv::Mat1f& disparity, bool along_rows, int line, in
   boxMeanRow(n, box_sum.data(), box_count.data(), mean.data());
 }
 
+/// Columns [x0, x1) of one row: the confidence of each estimate times the
+/// share kept for the start and the agreement of the largest shortfall.
+BDIS_ROW_LOOP
+void lowerBorderRow(int x0, int x1, const BorderRow& row, const float* __restrict top, const float* __restrict bottom,
+                    const float* __restrict from_left, const float* __restrict from_right,
+                    const float* __restrict column_kept, float inv_halving_sq, const float* __restrict d,
+                    float* __restrict c) {
+  const BorderRow r = row;  // by value: the stores to c cannot change it, so the loop vectorises
+  for (int x = x0; x < x1; ++x) {
+    const float shortfall = std::max(std::max(top[x] * r.from_top, bottom[x] * r.from_bottom),
+                                     std::max(r.left_slope * from_left[x], r.right_slope * from_right[x]));
+    const float share = std::min(r.kept, column_kept[x]) * agreement(shortfall * shortfall, inv_halving_sq);
+    c[x] = d[x] >= 0.f ? c[x] * share : c[x];
+  }
+}
+
 }  // namespace
 
 void ImageBorderCue::edgeSlopes(const cv::Mat1f& disparity, bool along_rows, int edge, int inward, int patch_px,
@@ -77,32 +94,43 @@ void ImageBorderCue::apply(const cv::Mat1f& disparity, int patch_px, float halvi
   edgeSlopes(disparity, true, h - 1, -1, p, bottom_);
   edgeSlopes(disparity, false, 0, 1, p, left_);
   edgeSlopes(disparity, false, w - 1, -1, p, right_);
-  const float inv_halving_sq = 1.f / (halving * halving);
   // The distance carried: from a patch side in (where patches reach from
   // both sides) out to the pixel.
   auto carried = [p](int distance_from_edge) { return static_cast<float>(std::max(0, p - distance_from_edge)); };
   // The one-sided start: within a patch side of the next coarser level (two
   // here) of the edge, the start the search refined was carried out to the
-  // edge as well, whatever the slope.
+  // edge as well, whatever the slope. The share kept rises with the distance
+  // from the nearest edge, so it is the smaller of the row's and the column's.
   const int reach = std::min(2 * p, std::min(w, h) / 2);
   const float rise = (1.f - kImageBorderKeptAtEdge) / static_cast<float>(reach);
+  auto kept = [&](int distance_from_edge) {
+    return std::min(1.f, kImageBorderKeptAtEdge + rise * static_cast<float>(distance_from_edge));
+  };
+  from_left_.resize(static_cast<size_t>(w));
+  from_right_.resize(static_cast<size_t>(w));
+  column_kept_.resize(static_cast<size_t>(w));
+  for (int x = 0; x < w; ++x) {
+    from_left_[static_cast<size_t>(x)] = carried(x);
+    from_right_[static_cast<size_t>(x)] = carried(w - 1 - x);
+    column_kept_[static_cast<size_t>(x)] = kept(std::min(x, w - 1 - x));
+  }
+  const float inv_halving_sq = 1.f / (halving * halving);
   for (int y = 0; y < h; ++y) {
-    const int from_row_edge = std::min(y, h - 1 - y);
-    const float from_top = carried(y), from_bottom = carried(h - 1 - y);
-    const float* d = disparity[y];
-    float* c = confidence[y];
     const size_t iy = static_cast<size_t>(y);
-    for (int x = 0; x < w; ++x) {
-      if (x == reach && from_row_edge >= reach) x = w - reach;  // between the side bands: nothing reaches
-      const int from_edge = std::min(from_row_edge, std::min(x, w - 1 - x));
-      const size_t ix = static_cast<size_t>(x);
-      const float shortfall = std::max({top_[ix] * from_top, bottom_[ix] * from_bottom, left_[iy] * carried(x),
-                                        right_[iy] * carried(w - 1 - x)});
-      const float start = std::min(1.f, kImageBorderKeptAtEdge + rise * static_cast<float>(from_edge));
-      const float lowered = c[x] * start * agreement(shortfall * shortfall, inv_halving_sq);
-      c[x] = d[x] >= 0.f ? lowered : c[x];
+    const BorderRow row{kept(std::min(y, h - 1 - y)), carried(y), carried(h - 1 - y), left_[iy], right_[iy]};
+    if (std::min(y, h - 1 - y) < reach) {
+      lowerRow(row, 0, w, inv_halving_sq, disparity[y], confidence[y]);
+    } else {  // only the side bands reach
+      lowerRow(row, 0, reach, inv_halving_sq, disparity[y], confidence[y]);
+      lowerRow(row, w - reach, w, inv_halving_sq, disparity[y], confidence[y]);
     }
   }
+}
+
+void ImageBorderCue::lowerRow(const BorderRow& row, int x0, int x1, float inv_halving_sq, const float* disparity,
+                              float* confidence) const {
+  lowerBorderRow(x0, x1, row, top_.data(), bottom_.data(), from_left_.data(), from_right_.data(),
+                 column_kept_.data(), inv_halving_sq, disparity, confidence);
 }
 
 }  // namespace detail

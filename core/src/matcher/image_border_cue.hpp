@@ -16,6 +16,15 @@
 namespace bdis {
 namespace detail {
 
+/// What one row of the image border cue needs besides its columns.
+struct BorderRow {
+  float kept;         ///< the share kept for the start at the row's distance from the top or bottom
+  float from_top;     ///< distance carried from the top edge (0 a patch side in and beyond)
+  float from_bottom;  ///< likewise from the bottom edge
+  float left_slope;   ///< the slope towards the left edge on this row
+  float right_slope;  ///< likewise towards the right edge
+};
+
 class ImageBorderCue {
  public:
   /// Multiplies the confidence of each estimate of `disparity` (level px;
@@ -37,9 +46,14 @@ class ImageBorderCue {
   void edgeSlopes(const cv::Mat1f& disparity, bool along_rows, int edge, int inward, int patch_px,
                   std::vector<float>& slope);
 
+  void lowerRow(const BorderRow& row, int x0, int x1, float inv_halving_sq, const float* disparity,
+                float* confidence) const;
+
   std::vector<float> sum_, count_, box_sum_, box_count_, padded_;  ///< sums across and along a line
   std::vector<float> near_, far_;                         ///< box means along a line
   std::vector<float> top_, bottom_, left_, right_;  ///< slope per position along each edge
+  std::vector<float> from_left_, from_right_;       ///< distance carried from the side edges, per column
+  std::vector<float> column_kept_;                  ///< the start's share at the column's distance from the sides
 };
 
 }  // namespace detail
