@@ -62,8 +62,11 @@ class PatchCost {
   float templateVariance() const;
   float meanSquaredResidual(const ResidualSums& r) const {
     if (r.count <= 0.f) return std::numeric_limits<float>::infinity();
-    const float mean = r.diff / r.count;
-    return r.diff_sq / r.count - (mean_normalization_ ? mean * mean : 0.f);
+    // One division, not two: the propagation compares costs as soon as they
+    // are known, so a division's latency is on its path.
+    const float inv_count = 1.f / r.count;
+    const float mean = r.diff * inv_count;
+    return r.diff_sq * inv_count - (mean_normalization_ ? mean * mean : 0.f);
   }
 
  private:
