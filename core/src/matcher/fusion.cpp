@@ -26,14 +26,18 @@ void fusedRow(int n, const float* __restrict num, const float* __restrict den, c
   }
 }
 
-/// The squared spread of the covering patches' disparities around the fused
-/// one: their weighted variance, sq / den - fused^2.
+/// fusedRow, and the squared spread of the covering patches' disparities
+/// around the fused one: their weighted variance, sq / den - fused^2. One
+/// reciprocal of den serves both.
 BDIS_ROW_LOOP
-void spreadSquaredRow(int n, const float* __restrict fused, const float* __restrict den,
-                      const float* __restrict sq, float* __restrict spread_sq) {
+void fusedAndSpreadSquaredRow(int n, const float* __restrict num, const float* __restrict den,
+                              const float* __restrict sq, const float* __restrict coarser, float* __restrict fused,
+                              float* __restrict spread_sq) {
   for (int x = 0; x < n; ++x) {
-    const float f = fused[x];
-    spread_sq[x] = std::max(0.f, sq[x] / std::max(den[x], std::numeric_limits<float>::min()) - f * f);
+    const float inv_den = 1.f / std::max(den[x], std::numeric_limits<float>::min());
+    const float f = num[x] * inv_den;
+    fused[x] = den[x] > 0.f ? f : coarser[x];
+    spread_sq[x] = std::max(0.f, sq[x] * inv_den - fused[x] * fused[x]);
   }
 }
 
@@ -44,12 +48,12 @@ void spreadSquaredRow(int n, const float* __restrict fused, const float* __restr
 /// confidence also ranks by where they disagree.
 BDIS_ROW_LOOP
 void floorRow(int n, const float* __restrict fused, const float* __restrict den,
-              const float* __restrict spread_sq, const float* __restrict conf_sum, const float* __restrict cover_x,
-              float cover_y, float inv_spread_halving_sq, float confidence_floor, float* __restrict disparity,
-              float* __restrict confidence) {
+              const float* __restrict spread_sq, const float* __restrict conf_sum,
+              const float* __restrict inv_cover_x, float inv_cover_y, float inv_spread_halving_sq,
+              float confidence_floor, float* __restrict disparity, float* __restrict confidence) {
   for (int x = 0; x < n; ++x) {
     const float f = fused[x];
-    const float evidence = conf_sum[x] / (cover_y * cover_x[x]);
+    const float evidence = conf_sum[x] * (inv_cover_y * inv_cover_x[x]);
     const float conf = evidence * agreement(spread_sq[x], inv_spread_halving_sq);
     const bool keep = (den[x] > 0.f) & (evidence >= confidence_floor);  // & : no branch
     const float d = keep ? f : kNoDisparity, c = keep ? conf : 0.f;
@@ -58,12 +62,15 @@ void floorRow(int n, const float* __restrict fused, const float* __restrict den,
   }
 }
 
-/// Patches covering each pixel along one axis of a level.
-void coverAlongAxis(const std::vector<int>& origins, int p, std::vector<float>& cover, int extent) {
-  std::fill(cover.begin(), cover.begin() + extent, 0.f);
+/// One over the number of patches covering each pixel along one axis of a
+/// level (infinite where none does): the mean evidence is then a product,
+/// not a division per pixel.
+void inverseCoverAlongAxis(const std::vector<int>& origins, int p, std::vector<float>& inv_cover, int extent) {
+  std::fill(inv_cover.begin(), inv_cover.begin() + extent, 0.f);
   for (int o : origins) {
-    for (int i = o; i < o + p; ++i) cover[static_cast<size_t>(i)] += 1.f;
+    for (int i = o; i < o + p; ++i) inv_cover[static_cast<size_t>(i)] += 1.f;
   }
+  for (int i = 0; i < extent; ++i) inv_cover[static_cast<size_t>(i)] = 1.f / inv_cover[static_cast<size_t>(i)];
 }
 
 void clearRows(cv::Mat1f& m, int from, int width) {
@@ -170,8 +177,8 @@ void Fusion::allocate(int band_rows, int max_width, int max_height, bool with_va
     var_num_.create(band_rows, max_width);
     var_den_.create(band_rows, max_width);
   }
-  cover_x_.resize(static_cast<size_t>(max_width));
-  cover_y_.resize(static_cast<size_t>(max_height));
+  inv_cover_x_.resize(static_cast<size_t>(max_width));
+  inv_cover_y_.resize(static_cast<size_t>(max_height));
   fused_row_.resize(static_cast<size_t>(max_width));
   coarser_row_.resize(static_cast<size_t>(max_width));
   spread_sq_row_.resize(static_cast<size_t>(max_width));
@@ -191,8 +198,8 @@ void Fusion::accumulate(const PatchGrid& grid, const std::vector<PatchEstimate>&
   variance.clear(0);
   // The grid is regular: the patches covering a pixel are those covering its
   // column times those covering its row.
-  coverAlongAxis(grid.xs, p, cover_x_, width);
-  coverAlongAxis(grid.ys, p, cover_y_, height);
+  inverseCoverAlongAxis(grid.xs, p, inv_cover_x_, width);
+  inverseCoverAlongAxis(grid.ys, p, inv_cover_y_, height);
 
   const size_t stride = num_.step1();
   size_t k = 0;
@@ -239,11 +246,12 @@ void Fusion::fuseFinest(const PatchGrid& grid, const std::vector<PatchEstimate>&
   auto finish = [&](int band_top, int end, auto& variance) {
     for (int y = band_top; y < end; ++y) {
       const int by = y - band_top;
-      fusedRowOrCoarse(width, by, y, coarse, fused_row_.data());
-      spreadSquaredRow(width, fused_row_.data(), den_[by], sq_[by], spread_sq_row_.data());
+      coarserLevelRow(coarse, y, width, coarser_row_.data());
+      fusedAndSpreadSquaredRow(width, num_[by], den_[by], sq_[by], coarser_row_.data(), fused_row_.data(),
+                               spread_sq_row_.data());
       float* disparity = out.disparity[y];
-      floorRow(width, fused_row_.data(), den_[by], spread_sq_row_.data(), conf_[by], cover_x_.data(),
-               cover_y_[static_cast<size_t>(y)], inv_spread_halving_sq, confidence_floor_, disparity,
+      floorRow(width, fused_row_.data(), den_[by], spread_sq_row_.data(), conf_[by], inv_cover_x_.data(),
+               inv_cover_y_[static_cast<size_t>(y)], inv_spread_halving_sq, confidence_floor_, disparity,
                out.confidence[keep_confidence ? y : 0]);
       variance.finishRow(by, disparity, spread_sq_row_.data(), y);
     }

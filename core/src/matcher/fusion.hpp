@@ -73,7 +73,7 @@ class Fusion {
   /// The band's sums: weighted disparity, weight, evidence, weighted squared disparity.
   cv::Mat1f num_, den_, conf_, sq_;
   cv::Mat1f var_num_, var_den_;          ///< with variance: squared-weight sums
-  std::vector<float> cover_x_, cover_y_;  ///< patches covering each column / row of the level
+  std::vector<float> inv_cover_x_, inv_cover_y_;  ///< 1 / patches covering each column / row of the level
   std::vector<float> fused_row_;         ///< the finest level's fused row before the floor
   std::vector<float> coarser_row_;       ///< coarserLevelRow of the row being fused
   std::vector<float> spread_sq_row_;     ///< its squared spread

@@ -31,17 +31,20 @@ inline float bend(float left, float right, float above, float below, float centr
 BDIS_ROW_LOOP
 void slantRow(int w, int r, const float* __restrict above, const float* __restrict mean,
               const float* __restrict below, const float* __restrict disparity, float inv_halving_sq,
-              const float* __restrict gradient_sq_sum, const float* __restrict box_columns, float box_rows,
-              float inv_misfit_halving_sq, float inv_bend_halving_sq, float* __restrict confidence) {
+              const float* __restrict gradient_sq_sum, const float* __restrict inv_box_columns,
+              float inv_box_rows, float inv_misfit_halving_sq, float inv_bend_halving_sq,
+              float* __restrict confidence) {
   const float inv_step = 1.f / static_cast<float>(r);
   for (int x = 0; x < w; ++x) {
     const float gx = slopeAcross(mean[x - r], mean[x], mean[x + r], inv_step);
     const float gy = slopeAcross(above[x], mean[x], below[x], inv_step);
     const float slope_sq = gx * gx + gy * gy;
-    const float gradient_sq = gradient_sq_sum[x] / (box_columns[x] * box_rows);
+    const float gradient_sq = gradient_sq_sum[x] * (inv_box_columns[x] * inv_box_rows);
     const float b = bend(mean[x - r], mean[x + r], above[x], below[x], mean[x]);
-    const float c = confidence[x] * agreement(slope_sq, inv_halving_sq) *
-                    agreement(slope_sq * gradient_sq, inv_misfit_halving_sq) * agreement(b * b, inv_bend_halving_sq);
+    // The three agreements' product over one division: agreement(s, k) = 1 / (1 + s k).
+    const float c = confidence[x] / ((1.f + slope_sq * inv_halving_sq) *
+                                     (1.f + slope_sq * gradient_sq * inv_misfit_halving_sq) *
+                                     (1.f + b * b * inv_bend_halving_sq));
     confidence[x] = disparity[x] >= 0.f ? c : confidence[x];
   }
 }
@@ -54,11 +57,11 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
   const int r = std::max(1, patch_px / 2);
   boxMeansOfEstimates(disparity, r, sums_, mean_);
 
-  // The box sums of the squared gradient; the clipped box's area is
-  // box_columns_[x] * clippedSpan(y), exact in float.
+  // The box sums of the squared gradient, over the clipped box's area
+  // clippedSpan(x) * clippedSpan(y): its columns' and rows' reciprocals.
   gradient_sums_.begin(w, h, r, /*with_b=*/false);
-  box_columns_.resize(static_cast<size_t>(w));
-  for (int x = 0; x < w; ++x) box_columns_[static_cast<size_t>(x)] = clippedSpan(x, w, r);
+  inv_box_columns_.resize(static_cast<size_t>(w));
+  for (int x = 0; x < w; ++x) inv_box_columns_[static_cast<size_t>(x)] = 1.f / clippedSpan(x, w, r);
 
   // agreement(|grad D| * patch_px, halving) = agreement(|grad D|, halving / patch_px),
   // and likewise for the misfit |grad D| * patch_px * g.
@@ -72,7 +75,8 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
                        [&](int y, const float* gradient_sq_sum, const float*) {
                          slantRow(w, r, y >= r ? mean_[y - r] + r : none, mean_[y] + r,
                                   y + r < h ? mean_[y + r] + r : none, disparity[y], inv_halving_sq,
-                                  gradient_sq_sum, box_columns_.data(), clippedSpan(y, h, r), inv_misfit_halving_sq,
+                                  gradient_sq_sum, inv_box_columns_.data(), 1.f / clippedSpan(y, h, r),
+                                  inv_misfit_halving_sq,
                                   inv_bend_halving_sq, confidence[y]);
                        });
 }

@@ -46,7 +46,7 @@ class SlantCue {
  private:
   BoxSums sums_;           ///< of the estimates and of their count
   BoxSums gradient_sums_;            ///< of the squared gradient
-  std::vector<float> box_columns_;  ///< columns of each column's box, clipped to the map
+  std::vector<float> inv_box_columns_;  ///< 1 / columns of each column's box, clipped to the map
   /// Box mean of the estimates, kNoDisparity where the box has none; r
   /// columns of kNoDisparity each side, and one all-kNoDisparity row last
   /// (stands in for the rows above the first and below the last).

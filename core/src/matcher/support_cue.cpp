@@ -30,8 +30,10 @@ BDIS_ROW_LOOP
 void supportRow(int w, const float* __restrict estimates, const float* __restrict valid,
                 const float* __restrict disparity, float inv_halving_sq, float* __restrict confidence) {
   for (int x = 0; x < w; ++x) {
-    const float missing = std::max(0.f, 1.f - estimates[x] / std::max(valid[x], 1.f));
-    const float c = confidence[x] * agreement(missing * missing, inv_halving_sq);
+    // agreement(missing share^2), the share (v - e) / v multiplied out: one division, not two.
+    const float v = std::max(valid[x], 1.f);
+    const float missing = std::max(0.f, v - estimates[x]);
+    const float c = confidence[x] * (v * v) / (v * v + missing * missing * inv_halving_sq);
     confidence[x] = disparity[x] >= 0.f ? c : confidence[x];
   }
 }

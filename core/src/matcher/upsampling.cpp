@@ -118,11 +118,11 @@ inline __attribute__((always_inline)) void upsampledRowOf(int n, const uchar* __
                                                           float* __restrict d_out, float* __restrict c_out) {
   for (int x = 0; x < n; ++x) {
     const bool keep = (valid[x] != 0) & (weight[x] > 0.25f);  // & : no branch
-    const float w = std::max(weight[x], 0.25f);
-    const float d = scale * disparity[x] / w;
+    const float inv_w = 1.f / std::max(weight[x], 0.25f);  // one division for both maps
+    const float d = scale * disparity[x] * inv_w;
     d_out[x] = keep ? d : kNoDisparity;
     if (kConfidence) {
-      const float c = confidence[x] / w;
+      const float c = confidence[x] * inv_w;
       c_out[x] = keep ? c : 0.f;
     }
   }
