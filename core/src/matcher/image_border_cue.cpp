@@ -54,6 +54,15 @@ void boxMeansAlongLine(const cv::Mat1f& disparity, bool along_rows, int line, in
   boxMeanRow(n, box_sum.data(), box_count.data(), mean.data());
 }
 
+/// What one row of the cue needs besides its columns.
+struct BorderRow {
+  float kept;         ///< the share kept for the start at the row's distance from the top or bottom
+  float from_top;     ///< distance carried from the top edge (0 a patch side in and beyond)
+  float from_bottom;  ///< likewise from the bottom edge
+  float left_slope;   ///< the slope towards the left edge on this row
+  float right_slope;  ///< likewise towards the right edge
+};
+
 /// Columns [x0, x1) of one row: the confidence of each estimate times the
 /// share kept for the start and the agreement of the largest shortfall.
 BDIS_ROW_LOOP
@@ -118,19 +127,17 @@ void ImageBorderCue::apply(const cv::Mat1f& disparity, int patch_px, float halvi
   for (int y = 0; y < h; ++y) {
     const size_t iy = static_cast<size_t>(y);
     const BorderRow row{kept(std::min(y, h - 1 - y)), carried(y), carried(h - 1 - y), left_[iy], right_[iy]};
+    auto lower = [&](int x0, int x1) {
+      lowerBorderRow(x0, x1, row, top_.data(), bottom_.data(), from_left_.data(), from_right_.data(),
+                     column_kept_.data(), inv_halving_sq, disparity[y], confidence[y]);
+    };
     if (std::min(y, h - 1 - y) < reach) {
-      lowerRow(row, 0, w, inv_halving_sq, disparity[y], confidence[y]);
+      lower(0, w);
     } else {  // only the side bands reach
-      lowerRow(row, 0, reach, inv_halving_sq, disparity[y], confidence[y]);
-      lowerRow(row, w - reach, w, inv_halving_sq, disparity[y], confidence[y]);
+      lower(0, reach);
+      lower(w - reach, w);
     }
   }
-}
-
-void ImageBorderCue::lowerRow(const BorderRow& row, int x0, int x1, float inv_halving_sq, const float* disparity,
-                              float* confidence) const {
-  lowerBorderRow(x0, x1, row, top_.data(), bottom_.data(), from_left_.data(), from_right_.data(),
-                 column_kept_.data(), inv_halving_sq, disparity, confidence);
 }
 
 }  // namespace detail

@@ -16,15 +16,6 @@
 namespace bdis {
 namespace detail {
 
-/// What one row of the image border cue needs besides its columns.
-struct BorderRow {
-  float kept;         ///< the share kept for the start at the row's distance from the top or bottom
-  float from_top;     ///< distance carried from the top edge (0 a patch side in and beyond)
-  float from_bottom;  ///< likewise from the bottom edge
-  float left_slope;   ///< the slope towards the left edge on this row
-  float right_slope;  ///< likewise towards the right edge
-};
-
 class ImageBorderCue {
  public:
   /// Multiplies the confidence of each estimate of `disparity` (level px;
@@ -45,9 +36,6 @@ class ImageBorderCue {
   /// patch side in (`inward` +1 or -1), per position along that edge.
   void edgeSlopes(const cv::Mat1f& disparity, bool along_rows, int edge, int inward, int patch_px,
                   std::vector<float>& slope);
-
-  void lowerRow(const BorderRow& row, int x0, int x1, float inv_halving_sq, const float* disparity,
-                float* confidence) const;
 
   std::vector<float> sum_, count_, box_sum_, box_count_, padded_;  ///< sums across and along a line
   std::vector<float> near_, far_;                         ///< box means along a line
