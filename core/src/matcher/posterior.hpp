@@ -60,12 +60,18 @@ inline bool isStrictLocalMinimum(const float* costs, int n) {
 }
 
 /// exp(x) for x <= 0, within 1e-7 of the exact value relative to it (about
-/// one ulp; below x = -87, where exp reaches the denormals, 1.6e-38 instead). Inline and branch-free, so a window's likelihoods vectorise:
-/// the library's expf was a call of about 50 instructions per sample, 3 % of
-/// a balanced frame. Cephes' expf: x = n ln 2 + f with |f| <= ln 2 / 2, a
-/// degree-7 polynomial for exp(f), 2^n written into the exponent bits.
+/// one ulp), down to the float range's end like exp: denormal below -87.3,
+/// 0 below -104. Inline and branch-free, so a window's likelihoods
+/// vectorise: the library's expf was a call of about 50 instructions per
+/// sample, 3 % of a balanced frame. Cephes' expf: x = n ln 2 + f with
+/// |f| <= ln 2 / 2, a degree-7 polynomial for exp(f), 2^n written into the
+/// exponent bits. A likelihood that underflows must still be 0: the variance
+/// fit leaves such samples out.
 inline float expOfNonPositive(float x) {
-  x = std::max(x, -87.f);
+  // Below -87 the exponent bits cannot hold 2^n: take exp(x + 64 ln 2) and
+  // scale by 2^-64, which rounds into the denormals and to 0 as exp does.
+  const bool tiny = x < -87.f;
+  x = std::max(tiny ? x + 44.3614195558365f : x, -87.f);
   // n = round(x / ln 2) by the float adder: past 2^23 the sum keeps integers only.
   constexpr float kRoundingShift = 12582912.f;  // 1.5 * 2^23
   const float shifted = x * 1.44269504088896341f + kRoundingShift;
@@ -84,7 +90,7 @@ inline float expOfNonPositive(float x) {
   const int32_t scale_bits = (n_int + 127) << 23;
   float scale;
   std::memcpy(&scale, &scale_bits, sizeof scale);
-  return p * scale;
+  return p * scale * (tiny ? 5.42101086242752217e-20f : 1.f);  // 2^-64
 }
 
 /// Least-squares fit of a zero-mean Gaussian with a free scale through the
