@@ -195,7 +195,7 @@ float PatchSearch::refinePatch(PatchCost& cost, float u_start) {
     if (r.count <= 0.f) break;
     float b = r.g_diff, H = r.g_sq;
     if (mean_normalization_) {
-      const float inv_count = 1.f / r.count;  // one division, not two: each costs the latency of ten adds
+      const float inv_count = 1.f / r.count;  // one division, not two: each is three additions' latency
       b -= r.diff * r.g * inv_count;
       H -= r.g * r.g * inv_count;
     }
