@@ -60,18 +60,17 @@ inline bool isStrictLocalMinimum(const float* costs, int n) {
 }
 
 /// exp(x) for x <= 0, within 1e-7 of the exact value relative to it (about
-/// one ulp), down to the float range's end like exp: denormal below -87.3,
-/// 0 below -104. Inline and branch-free, so a window's likelihoods
-/// vectorise: the library's expf was a call of about 50 instructions per
-/// sample, 3 % of a balanced frame. Cephes' expf: x = n ln 2 + f with
-/// |f| <= ln 2 / 2, a degree-7 polynomial for exp(f), 2^n written into the
-/// exponent bits. A likelihood that underflows must still be 0: the variance
-/// fit leaves such samples out.
+/// one ulp), and 0 below -87.3 where exp leaves the normal floats (as with
+/// denormals flushed to zero). Inline and branch-free: the library's expf was
+/// a call of about 50 instructions per window sample, 3 % of a balanced
+/// frame. Cephes' expf: x = n ln 2 + f with |f| <= ln 2 / 2, a degree-7
+/// polynomial for exp(f), 2^n written into the exponent bits. A likelihood
+/// that underflows must be 0, not the smallest value: the variance fit
+/// leaves samples of likelihood 0 out.
 inline float expOfNonPositive(float x) {
-  // Below -87 the exponent bits cannot hold 2^n: take exp(x + 64 ln 2) and
-  // scale by 2^-64, which rounds into the denormals and to 0 as exp does.
-  const bool tiny = x < -87.f;
-  x = std::max(tiny ? x + 44.3614195558365f : x, -87.f);
+  constexpr float kLowest = -87.33654f;  // log(FLT_MIN)
+  const bool underflows = x < kLowest;
+  x = std::max(x, kLowest);
   // n = round(x / ln 2) by the float adder: past 2^23 the sum keeps integers only.
   constexpr float kRoundingShift = 12582912.f;  // 1.5 * 2^23
   const float shifted = x * 1.44269504088896341f + kRoundingShift;
@@ -90,7 +89,7 @@ inline float expOfNonPositive(float x) {
   const int32_t scale_bits = (n_int + 127) << 23;
   float scale;
   std::memcpy(&scale, &scale_bits, sizeof scale);
-  return p * scale * (tiny ? 5.42101086242752217e-20f : 1.f);  // 2^-64
+  return underflows ? 0.f : p * scale;
 }
 
 /// Least-squares fit of a zero-mean Gaussian with a free scale through the
