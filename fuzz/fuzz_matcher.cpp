@@ -217,7 +217,8 @@ Images decodeImages(FuzzedDataProvider& in) {
 }
 
 /// The documented ranges of a result for inputs of `size`.
-void checkResult(const bdis::MatchResult& r, const cv::Mat& left, bool variance) {
+void checkResult(const bdis::MatchResult& r, const cv::Mat& left, const bdis::MatcherParams& params) {
+  const bool variance = params.compute_variance;
   const cv::Size size = left.size();
   check(r.disparity.type() == CV_32FC1 && r.disparity.size() == size, "disparity type/size");
   check(r.confidence.type() == CV_32FC1 && r.confidence.size() == size, "confidence type/size");
@@ -246,6 +247,7 @@ void checkResult(const bdis::MatchResult& r, const cv::Mat& left, bool variance)
         fail("disparity outside [0, width]:", d[x]);
       }
       if (!(c[x] >= 0.f && c[x] <= 1.f + 1e-5f)) fail("confidence outside [0, 1]:", c[x]);
+      if (c[x] < params.min_confidence) fail("estimate below min_confidence:", c[x]);
       if (v && !(std::isfinite(v[x]) && v[x] >= 0.f)) fail("variance not finite or < 0:", v[x]);
     }
   }
@@ -356,7 +358,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   expectInvalidArgument(!img.valid_input, "compute",
                         [&] { matcher.compute(img.left, img.right, result); });
   if (img.valid_input) {
-    checkResult(result, img.left, params.compute_variance);
+    checkResult(result, img.left, params);
     checkGeometry(result.disparity, camera, camera_valid);
   }
 
@@ -376,7 +378,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   expectInvalidArgument(!second_input_valid, "compute (second frame)",
                         [&] { matcher.compute(left, right, result); });
   if (second_input_valid) {
-    checkResult(result, left, matcher.params().compute_variance);
+    checkResult(result, left, matcher.params());
   }
   return 0;
 }

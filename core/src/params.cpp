@@ -103,6 +103,8 @@ const std::vector<ParamField>& paramFields() {
             "patch overlap of the left-right check's search from the right image (finest level)"),
       field("compute_variance", &MatcherParams::compute_variance, 0, 1,
             "also compute the per-pixel disparity variance (px^2), published as variance"),
+      field("min_confidence", &MatcherParams::min_confidence, 0.0, 1.0,
+            "estimates with a lower confidence are dropped (disparity, depth, points); 0 = none"),
       field("refinement_iterations", &MatcherParams::refinement_iterations, 0, 20,
             "variational refinement of the finest level's estimates (DIS's last stage, along x): "
             "fixed-point steps; 0 = off"),

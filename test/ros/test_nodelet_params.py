@@ -3,7 +3,8 @@
 rejected one by one with a log line naming the parameter, the effective value
 is written back, and the nodelet works with it; invalid values through
 dynamic_reconfigure are rejected (NaN, inconsistent levels) or clamped to the
-range, said so in the log, and frames keep coming."""
+range, said so in the log, and frames keep coming; min_confidence set live
+drops the less confident estimates, with or without a confidence subscriber."""
 import math
 import os
 import signal
@@ -15,6 +16,7 @@ import numpy as np
 import rospy
 import yaml
 import rostest
+from sensor_msgs.msg import Image
 from stereo_msgs.msg import DisparityImage
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -162,6 +164,52 @@ class TestNodeletParams(unittest.TestCase):
         finally:
             client.close()
             node.close()
+
+    def test_min_confidence_drops_the_less_confident_estimates(self):
+        import dynamic_reconfigure.client
+        ns = "/conf"
+        node = LoadedNodelet(ns)
+        client = dynamic_reconfigure.client.Client(ns + "/bdis", timeout=10)
+        confidence = u.Collector(ns + "/confidence", Image)
+        try:
+            def estimates(msg):
+                return u.float_image(msg.image) >= 0.0
+
+            # Unfiltered, with a confidence subscriber: its median over the estimates.
+            before = self.first_disparity(ns)
+            c = u.float_image(confidence.wait_stamp(before.header.stamp))
+            kept = estimates(before)
+            self.assertGreater(kept.mean(), 0.5)
+            threshold = float(np.median(c[kept]))
+            self.assertGreater(threshold, 0.0)
+            cfg = client.update_configuration({"min_confidence": threshold})
+            self.assertAlmostEqual(cfg["min_confidence"], threshold, places=5)
+            # The same pair with the confidence subscribed: every estimate left
+            # reaches the threshold, every pixel without one has confidence 0.
+            after = self.first_disparity(ns)
+            c = u.float_image(confidence.wait_stamp(after.header.stamp))
+            left = estimates(after)
+            self.assertTrue((c[left] >= threshold).all())
+            self.assertTrue((c[~left] == 0.0).all())
+            self.assertAlmostEqual(left.mean(), kept.mean() / 2, delta=0.02 * kept.mean())
+            # And without a confidence subscriber: the same estimates.
+            confidence.close()
+            confidence = None
+            u.wait_for(lambda: self.subscribers(ns + "/confidence") == 0, 10.0, "the confidence unsubscribed")
+            rospy.sleep(0.5)  # the nodelet's publisher sees the link go
+            unsubscribed = estimates(self.first_disparity(ns))
+            self.assertTrue((unsubscribed == left).all())
+        finally:
+            if confidence:
+                confidence.close()
+            client.close()
+            node.close()
+
+    @staticmethod
+    def subscribers(topic):
+        import rosgraph
+        _, subs, _ = rosgraph.Master("/test_nodelet_params").getSystemState()
+        return sum(len(nodes) for name, nodes in subs if name == topic)
 
 
 def _services():

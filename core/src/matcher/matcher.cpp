@@ -62,6 +62,20 @@ void validateInputs(const cv::Mat& left, const cv::Mat& right) {
   }
 }
 
+/// Estimates whose confidence is below `min_confidence` get none (and
+/// confidence 0, as every pixel without an estimate).
+void dropLessConfident(float min_confidence, cv::Mat& disparity, cv::Mat& confidence) {
+  for (int y = 0; y < disparity.rows; ++y) {
+    float* d = disparity.ptr<float>(y);
+    float* c = confidence.ptr<float>(y);
+    for (int x = 0; x < disparity.cols; ++x) {
+      const bool drop = c[x] < min_confidence;
+      d[x] = drop ? kNoDisparity : d[x];
+      c[x] = drop ? 0.f : c[x];
+    }
+  }
+}
+
 /// The left-right check's settings: the same search with the right image as
 /// reference, on a sparser grid (it only confirms or refutes), where any
 /// fused estimate may confirm.
@@ -145,9 +159,12 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   const int levels = detail::levelsThatFit(left.cols, left.rows, P.patch_size, P.coarsest_level + 1);
   const int finest = std::min(P.finestLevelFor(left.cols), levels - 1);
   const bool with_check = P.lr_check_tolerance > 0.f;
+  // The confidence is computed when asked for or when it decides which
+  // estimates are published.
+  const bool with_confidence = outputs.confidence || P.min_confidence > 0.f;
 
   // 1. Pyramid: grey levels, gradients and validity of the pair.
-  m.pyramid.build(left, right, levels, finest, P.saturation_grey, /*probe_block_grid=*/outputs.confidence);
+  m.pyramid.build(left, right, levels, finest, P.saturation_grey, /*probe_block_grid=*/with_confidence);
   // 2. Coarse to fine above the finest level; each level initialises the next.
   m.matchLevelsAboveFinest(left.size(), levels, finest);
   if (with_check) {
@@ -176,11 +193,14 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   m.centroid_correction.apply(m.pyramid.level(finest), P.patch_size, detail::kCentroidShiftLimitPx * level_px,
                               out.disparity);
   m.refinement.apply(m.pyramid.level(finest), m.left.aboveFinest(), out.disparity);
-  // 6. The confidence's cues, only when the confidence is asked for: they
+  // 6. The confidence's cues, only when the confidence is computed: they
   //    change no disparity.
-  if (outputs.confidence) m.applyConfidenceCues(finest, out);
-  // 7. Upsampling to the input resolution.
-  m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, outputs.confidence, result);
+  if (with_confidence) m.applyConfidenceCues(finest, out);
+  // 7. Upsampling to the input resolution; then the estimates less
+  //    confident than min_confidence are dropped, at the resolution the
+  //    confidence is published at (and the variance with them).
+  m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, with_confidence, result);
+  if (P.min_confidence > 0.f) dropLessConfident(P.min_confidence, result.disparity, result.confidence);
   if (P.compute_variance && outputs.variance) {
     m.upsampler.upsampleVariance(out, finest, result);
   } else {

@@ -95,7 +95,8 @@ using bdis::MatcherParams;
 using bdis::MatchResult;
 
 /// Allocations made by compute() on frames 2..N of one size, after frame 1.
-long steadyStateAllocations(const MatcherParams& params, bool colour, int frames = 4) {
+long steadyStateAllocations(const MatcherParams& params, bool colour, const bdis::MatchOutputs& outputs = {},
+                            int frames = 4) {
   Matcher matcher(params);
   MatchResult result;
   std::vector<bdis_test::StereoPair> pairs;
@@ -114,10 +115,10 @@ long steadyStateAllocations(const MatcherParams& params, bool colour, int frames
       right[i] = pairs[i].right;
     }
   }
-  matcher.compute(left[0], right[0], result);  // first frame of this size: sizes the buffers
+  matcher.compute(left[0], right[0], result, outputs);  // first frame of this size: sizes the buffers
   g_allocations = 0;
   g_counting = true;
-  for (int i = 1; i < frames; ++i) matcher.compute(left[i], right[i], result);
+  for (int i = 1; i < frames; ++i) matcher.compute(left[i], right[i], result, outputs);
   g_counting = false;
   return g_allocations.load();
 }
@@ -148,12 +149,13 @@ struct AllocationCase {
   const char* name;
   MatcherParams params;
   bool colour;
+  bdis::MatchOutputs outputs{};
 };
 
 class SteadyStateAllocations : public ::testing::TestWithParam<AllocationCase> {};
 
 TEST_P(SteadyStateAllocations, ZeroPerFrame) {
-  const long n = steadyStateAllocations(GetParam().params, GetParam().colour);
+  const long n = steadyStateAllocations(GetParam().params, GetParam().colour, GetParam().outputs);
   std::printf("[measured] %s: %ld allocations in 3 steady-state frames\n", GetParam().name, n);
   EXPECT_EQ(n, 0);
 }
@@ -167,6 +169,11 @@ MatcherParams preset(const char* name) { return MatcherParams::preset(name); }
 MatcherParams withGainCompensation() {
   MatcherParams p;
   p.gain_compensation = true;
+  return p;
+}
+MatcherParams withMinConfidence() {
+  MatcherParams p;
+  p.min_confidence = 0.01f;
   return p;
 }
 MatcherParams fullResolutionNoChecks() {
@@ -185,7 +192,11 @@ INSTANTIATE_TEST_SUITE_P(
                       AllocationCase{"fast", preset("fast"), false},
                       AllocationCase{"accurate", preset("accurate"), true},
                       AllocationCase{"gain compensation", withGainCompensation(), false},
-                      AllocationCase{"finest 0, no checks", fullResolutionNoChecks(), false}),
+                      AllocationCase{"finest 0, no checks", fullResolutionNoChecks(), false},
+                      // The node's case: the confidence decides without being published.
+                      AllocationCase{"min_confidence, no confidence asked", withMinConfidence(), false,
+                                     bdis::MatchOutputs{false, false}},
+                      AllocationCase{"disparity only", MatcherParams{}, false, bdis::MatchOutputs{false, false}}),
     [](const auto& info) {
       std::string n = info.param.name;
       for (char& c : n) if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';

@@ -457,6 +457,57 @@ TEST(MatcherReuse, MapsLeftOutAreEmptyAndTheOthersUnchanged) {
   }
 }
 
+// min_confidence keeps exactly the estimates whose confidence reaches it,
+// with the disparity, confidence and variance they have without it, and
+// drops the others (no estimate, confidence 0, variance NaN); it decides
+// whether the confidence is asked for or not, so it is filled either way.
+TEST(MatcherOutputs, MinConfidenceDropsExactlyTheLessConfidentEstimates) {
+  MatcherParams params;
+  params.compute_variance = true;
+  const StereoPair pair = texturedPair(kW, kH, {7.3, 0.0}, 3);
+  const MatchResult all = run(params, pair.left, pair.right);
+  // Thresholds at a quarter, half and three quarters of the estimates.
+  std::vector<float> confidences;
+  for (int y = 0; y < kH; ++y) {
+    for (int x = 0; x < kW; ++x) {
+      if (all.disparity.at<float>(y, x) != bdis::kNoDisparity) confidences.push_back(all.confidence.at<float>(y, x));
+    }
+  }
+  std::sort(confidences.begin(), confidences.end());
+  ASSERT_GT(confidences.size(), 1000u);
+  for (const size_t quarter : {1, 2, 3}) {
+    const float threshold = confidences[quarter * confidences.size() / 4];
+    params.min_confidence = threshold;
+    Matcher m(params);
+    for (const bool confidence : {true, false}) {
+      SCOPED_TRACE("min_confidence " + std::to_string(threshold) + (confidence ? "" : ", confidence not asked for"));
+      MatchResult r;
+      m.compute(pair.left, pair.right, r, bdis::MatchOutputs{confidence, true});
+      ASSERT_FALSE(r.confidence.empty());
+      int kept = 0, dropped = 0, wrong = 0;
+      for (int y = 0; y < kH; ++y) {
+        for (int x = 0; x < kW; ++x) {
+          const float d = r.disparity.at<float>(y, x), c = r.confidence.at<float>(y, x);
+          const float v = r.variance.at<float>(y, x);
+          if (all.disparity.at<float>(y, x) == bdis::kNoDisparity) {
+            wrong += d != bdis::kNoDisparity;
+          } else if (all.confidence.at<float>(y, x) >= threshold) {
+            ++kept;
+            wrong += d != all.disparity.at<float>(y, x) || c != all.confidence.at<float>(y, x) ||
+                     v != all.variance.at<float>(y, x);
+          } else {
+            ++dropped;
+            wrong += d != bdis::kNoDisparity || c != 0.f || !std::isnan(v);
+          }
+        }
+      }
+      EXPECT_EQ(wrong, 0);
+      EXPECT_NEAR(kept, static_cast<double>((4 - quarter) * confidences.size()) / 4, confidences.size() / 100);
+      EXPECT_GT(dropped, 0);
+    }
+  }
+}
+
 TEST(MatcherReuse, ResultObjectFromOtherUseIsOverwrittenCompletely) {
   // A MatchResult holding stale, wrongly typed buffers: compute replaces them.
   const StereoPair a = texturedPair(160, 120, {5.6, 0.0});
