@@ -113,10 +113,10 @@ void PatchCost::sums(float u, ResidualSums& r, bool with_gradient) {
     r.g_sq = cur_.constants.g_sq;
     return;
   }
-  sumsNearInvalidOrEdge(span, r);
+  sumsNearInvalidOrEdge(span, with_gradient, r);
 }
 
-void PatchCost::sumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
+void PatchCost::sumsNearInvalidOrEdge(SampleSpan span, bool with_gradient, ResidualSums& r) {
   const PyramidLevel& L = *cur_.level;
   // Near or past the image edge with a fully valid template: sum over the
   // columns inside the image, if those are valid.
@@ -125,13 +125,13 @@ void PatchCost::sumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r) {
     const int taps = span.frac > 0.f ? 1 : 0;
     const int lo = span.base + cols.begin, hi = span.base + cols.end + taps;
     if (cols.empty() || band_.rightInvalid(lo, hi) == 0) {
-      kernels_->sums_clipped(cur_.right_rows, cur_.right_stride, p_, span, cols, cur_.view, r);
+      kernels_->sums_clipped(cur_.right_rows, cur_.right_stride, p_, span, cols, cur_.view, with_gradient, r);
       return;
     }
   }
   // Invalid pixels in the template or under the span: every pixel weighted by both validities.
   kernels_->sums_masked(cur_.right_rows, cur_.right_stride, L.rightValidRow(cur_.y0), L.right_valid.step1(),
-                        L.width, p_, span, cur_.view, cur_.valid, L.left_valid.step1(), r);
+                        L.width, p_, span, cur_.view, cur_.valid, L.left_valid.step1(), with_gradient, r);
 }
 
 float PatchCost::templateVariance() const {

@@ -110,7 +110,7 @@ class PatchCost {
            (cur_.no_invalid_pixels || band_.rightInvalid(lo, hi) == 0);
   }
   /// sums() where the all-valid kernels may not run: near the image edge or invalid pixels.
-  void sumsNearInvalidOrEdge(SampleSpan span, ResidualSums& r);
+  void sumsNearInvalidOrEdge(SampleSpan span, bool with_gradient, ResidualSums& r);
 
   const KernelSet* kernels_ = nullptr;
   int p_ = 0;

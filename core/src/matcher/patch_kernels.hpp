@@ -203,7 +203,7 @@ inline ColumnRange columnsInside(int width, int p, SampleSpan span) {
 /// `cols`, the columns that stay inside the image (a match near or past its
 /// edge): sums over those columns without per-pixel tests.
 inline void sumsClipped(const float* rows, size_t stride, int p, SampleSpan span, ColumnRange cols,
-                        const PatchView& patch, ResidualSums& out) {
+                        const PatchView& patch, bool with_gradient, ResidualSums& out) {
   out = ResidualSums{};
   if (cols.empty()) return;
   const bool two_taps = span.frac > 0.f;
@@ -223,18 +223,20 @@ inline void sumsClipped(const float* rows, size_t stride, int p, SampleSpan span
       sgg += g[i] * g[i];
     }
   }
-  out = {static_cast<float>((cols.end - cols.begin) * p), sd, sdd, sgd, sg, sgg};
+  out = {static_cast<float>((cols.end - cols.begin) * p), sd, sdd, with_gradient ? sgd : 0.f,
+         with_gradient ? sg : 0.f, with_gradient ? sgg : 0.f};
 }
 
 /// General path: pixels invalid in the template (M == 0; rows `mask_stride`
 /// bytes apart), outside the image [0, width), or touching an invalid right
 /// pixel (right_valid == 0; column 0 of the patch's first row at
 /// `right_valid`, rows `valid_stride` bytes apart) are left out of every sum.
-/// `rows` and `stride` as for sumsAllValid.
+/// `rows` and `stride` as for sumsAllValid. Without `with_gradient` the
+/// gradient's sums are 0 and the others the same.
 inline void sumsMasked(const float* rows, size_t stride, const uchar* right_valid,
                        size_t valid_stride, int width, int p, SampleSpan span,
                        const PatchView& patch, const uchar* M, size_t mask_stride,
-                       ResidualSums& out) {
+                       bool with_gradient, ResidualSums& out) {
   const bool two_taps = span.frac > 0.f;
   const float w0 = 1.f - span.frac;
   float n = 0, sd = 0, sdd = 0, sgd = 0, sg = 0, sgg = 0;
@@ -258,7 +260,7 @@ inline void sumsMasked(const float* rows, size_t stride, const uchar* right_vali
       sgg += g[i] * g[i];
     }
   }
-  out = {n, sd, sdd, sgd, sg, sgg};
+  out = with_gradient ? ResidualSums{n, sd, sdd, sgd, sg, sgg} : ResidualSums{n, sd, sdd, 0.f, 0.f, 0.f};
 }
 
 /// Fusion of one patch: adds posterior * spatial weight w times the
@@ -307,13 +309,13 @@ struct KernelSet {
   void (*sums_no_gradient_batch)(const float* rows, size_t stride, int p, const SampleSpan* spans,
                                  int n, const PatchView& patch, ResidualSums* out);
   void (*sums_clipped)(const float* rows, size_t stride, int p, SampleSpan span, ColumnRange cols,
-                       const PatchView& patch, ResidualSums& out);
+                       const PatchView& patch, bool with_gradient, ResidualSums& out);
   void (*window_costs)(const float* rows, size_t stride, int p, int base_lo, float frac, int samples,
                        int step, const PatchView& patch, bool mean_normalization, float* row_buf,
                        float* sum, float* sum_sq, float* costs);
   void (*sums_masked)(const float* rows, size_t stride, const uchar* right_valid, size_t valid_stride,
                       int width, int p, SampleSpan span, const PatchView& patch, const uchar* M,
-                      size_t mask_stride, ResidualSums& out);
+                      size_t mask_stride, bool with_gradient, ResidualSums& out);
   void (*accumulate_patch)(int p, const float* spatial, float posterior, float disparity, float evidence,
                            float* num, float* den, float* conf, float* sq, size_t stride);
   void (*template_sums)(int p, const PatchView& patch, TemplateSums& out);

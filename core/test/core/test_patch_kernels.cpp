@@ -93,7 +93,7 @@ TEST(PatchKernels, AllValidSumsMatchTheMaskedPathWhenEverythingIsValid) {
   ResidualSums fast, masked;
   sumsAllValid(right[y0], right.step1(), p, span, view, fast);
   sumsMasked(right[y0], right.step1(), valid[y0], valid.step1(), right.cols, p, span, view, M.data(), p,
-             masked);
+             /*with_gradient=*/true, masked);
   EXPECT_EQ(fast.count, masked.count);
   EXPECT_NEAR(fast.diff, masked.diff, 1e-3 * std::fabs(masked.diff) + 1e-2);
   EXPECT_NEAR(fast.diff_sq, masked.diff_sq, 1e-4 * masked.diff_sq);
@@ -243,7 +243,8 @@ TEST(PatchKernels, EveryIsaAccumulatesAPatchLikeTheScalarLoop) {
 
 // Every kernel set's clipped sums (the fixed-size ones read whole rows from
 // the padding and mask them) against the per-pixel masked path, at matches
-// reaching past either image edge.
+// reaching past either image edge; without the gradient's sums, the same
+// others bit for bit.
 TEST(PatchKernels, ClippedSumsMatchTheMaskedPathAtTheImageEdges) {
   cv::RNG rng(9);
   const int y0 = 2, width = 70;
@@ -265,11 +266,17 @@ TEST(PatchKernels, ClippedSumsMatchTheMaskedPathAtTheImageEdges) {
       for (int x0 : {0, 3, width - p - 5, width - p - 2, width - p}) {
         for (float u : {-6.5f, -2.f, 0.f, 0.25f, 4.f, 7.75f, 12.f, static_cast<float>(p) + 3.5f}) {
           const SampleSpan span = sampleSpan(x0, u);
-          ResidualSums clipped, masked;
+          ResidualSums clipped, masked, cost_only;
           k.sums_clipped(right[y0], right.step1(), p, span, columnsInside(width, p, span), view,
-                         clipped);
+                         /*with_gradient=*/true, clipped);
+          k.sums_clipped(right[y0], right.step1(), p, span, columnsInside(width, p, span), view,
+                         /*with_gradient=*/false, cost_only);
+          EXPECT_EQ(cost_only.count, clipped.count);
+          EXPECT_EQ(cost_only.diff, clipped.diff);
+          EXPECT_EQ(cost_only.diff_sq, clipped.diff_sq);
+          EXPECT_EQ(cost_only.g_diff + cost_only.g + cost_only.g_sq, 0.f);
           sumsMasked(right[y0], right.step1(), valid[y0], valid.step1(), width, p, span, view, M.data(),
-                     static_cast<size_t>(p), masked);
+                     static_cast<size_t>(p), /*with_gradient=*/true, masked);
           EXPECT_EQ(clipped.count, masked.count) << k.name << " p=" << p << " x0=" << x0 << " u=" << u;
           EXPECT_NEAR(clipped.diff, masked.diff, 1e-3 * std::fabs(masked.diff) + 1e-1);
           EXPECT_NEAR(clipped.diff_sq, masked.diff_sq, 1e-4 * masked.diff_sq + 1e-3);
@@ -285,8 +292,9 @@ TEST(PatchKernels, ClippedSumsMatchTheMaskedPathAtTheImageEdges) {
   EXPECT_GE(partial, 40);  // the cases do reach past the edges
 }
 
-// Every kernel set's masked sums (the fixed-size ones weight lanes by the
-// validity bytes and read the zero padding for columns outside the image)
+// Every kernel set's masked sums (the fixed-size ones mask lanes by the
+// validity bytes, any non-zero byte valid, and read the zero padding for
+// columns outside the image), with and without the gradient's sums,
 // against a per-pixel double-precision reference, with invalid pixels in the
 // template and in the right image and matches reaching past either edge.
 TEST(PatchKernels, EveryIsaMaskedSumsMatchThePerPixelReference) {
@@ -298,7 +306,8 @@ TEST(PatchKernels, EveryIsaMaskedSumsMatchThePerPixelReference) {
   cv::Mat1b valid_padded(height, width + 2 * kRightPadding, uchar(0));
   cv::Mat1b valid = valid_padded.colRange(kRightPadding, kRightPadding + width);
   for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) valid(y, x) = rng.uniform(0, 5) != 0;  // one in five invalid
+    // One in five invalid; the valid ones any non-zero byte, which counts as 1.
+    for (int x = 0; x < width; ++x) valid(y, x) = static_cast<uchar>(rng.uniform(0, 5) * 60);
   }
   int sets_checked = 0, cases = 0, partial = 0;
   for (KernelIsa isa : {KernelIsa::Scalar, KernelIsa::Baseline, KernelIsa::Avx2}) {
@@ -310,15 +319,17 @@ TEST(PatchKernels, EveryIsaMaskedSumsMatchThePerPixelReference) {
       std::vector<uchar> M(T.size());
       for (float& t : T) t = rng.uniform(0.f, 255.f);
       for (float& g : G) g = rng.uniform(-20.f, 20.f);
-      for (uchar& m : M) m = rng.uniform(0, 4) != 0;
+      for (uchar& m : M) m = static_cast<uchar>(rng.uniform(0, 4) * 85);
       const PatchView view{T.data(), G.data(), static_cast<size_t>(p)};
       const int y0 = 3;
       for (int x0 : {0, 5, width / 2, width - p - 3, width - p}) {
         for (float u : {-7.5f, -1.f, 0.f, 0.25f, 3.f, 9.6f, 21.f, static_cast<float>(p) + 4.5f, 80.f}) {
           const SampleSpan span = sampleSpan(x0, u);
-          ResidualSums got;
+          ResidualSums got, cost_only;
           k.sums_masked(right[y0], right.step1(), valid[y0], valid.step1(), width, p, span, view, M.data(),
-                        static_cast<size_t>(p), got);
+                        static_cast<size_t>(p), /*with_gradient=*/true, got);
+          k.sums_masked(right[y0], right.step1(), valid[y0], valid.step1(), width, p, span, view, M.data(),
+                        static_cast<size_t>(p), /*with_gradient=*/false, cost_only);
           // Sums, and sums of magnitudes that bound the float rounding.
           double n = 0, sd = 0, sdd = 0, sgd = 0, sg = 0, sgg = 0, abs_d = 0, abs_gd = 0, abs_g = 0;
           for (int y = 0; y < p; ++y) {
@@ -348,6 +359,11 @@ TEST(PatchKernels, EveryIsaMaskedSumsMatchThePerPixelReference) {
           EXPECT_NEAR(got.g_diff, sgd, 1e-4 * abs_gd + 1e-3) << where;
           EXPECT_NEAR(got.g, sg, 1e-4 * abs_g + 1e-3) << where;
           EXPECT_NEAR(got.g_sq, sgg, 1e-4 * sgg + 1e-3) << where;
+          // A cost's sums alone: the same bits, and no gradient's.
+          EXPECT_EQ(cost_only.count, got.count) << where;
+          EXPECT_EQ(cost_only.diff, got.diff) << where;
+          EXPECT_EQ(cost_only.diff_sq, got.diff_sq) << where;
+          EXPECT_EQ(cost_only.g_diff + cost_only.g + cost_only.g_sq, 0.f) << where;
           ++cases;
           if (n > 0 && n < p * p / 2) ++partial;
         }
