@@ -1,6 +1,7 @@
 #include "pyramid.hpp"
 
 #include <algorithm>
+#include <cstdint>
 #include <cstring>
 
 namespace bdis {
@@ -40,28 +41,45 @@ void StereoPyramid::scaleRightView(int s, float factor) {
 
 namespace {
 
-/// Rectification leaves more than black outside the view: interpolating the
-/// image against its black frame gives a seam of dark pixels (grey 1-20 in
-/// endoscope recordings) and one blended pixel before the tissue. As a
-/// texture, that frame edge matches the other view's frame edge, which sits
-/// at another offset: a strip of wrong disparities along the border. So where
-/// a row starts or ends in black (the frame always reaches the image's edge),
-/// the dark pixels after the black, up to kSeamWidth of them, and the pixel
-/// after those are outside the view too. Black holes inside the view (dead
-/// pixels, a masked tool) are not frames and keep their neighbours.
+// The seam invalidateSeams takes out (pyramid.hpp): up to this many pixels
+// this dark after a row's black frame.
 constexpr int kSeamWidth = 8;
 constexpr uchar kSeamGrey = 20;
+
+/// The first index from i towards `end` (exclusive; one step `side`, +1 or
+/// -1) whose byte is non-zero, `end` if none. Eight bytes at a time: a black
+/// frame is often a hundred pixels and more on each side.
+int skipZeros(const uchar* bytes, int i, int end, int side) {
+  std::uint64_t word;
+  if (side > 0) {
+    for (; i + 8 <= end; i += 8) {
+      std::memcpy(&word, bytes + i, sizeof word);
+      if (word != 0) break;
+    }
+  } else {
+    for (; i - 8 >= end; i -= 8) {
+      std::memcpy(&word, bytes + i - 7, sizeof word);
+      if (word != 0) break;
+    }
+  }
+  while (i != end && !bytes[i]) i += side;
+  return i;
+}
+
+}  // namespace
 
 void invalidateSeams(const uchar* grey, int w, uchar* valid) {
   for (const int side : {+1, -1}) {
     int i = side > 0 ? 0 : w - 1;
     const int end = side > 0 ? w : -1;
     if (valid[i]) continue;  // the row does not start (end) in black: the usual case
-    while (i != end && !valid[i]) i += side;
+    i = skipZeros(valid, i, end, side);
     for (int n = 0; n < kSeamWidth && i != end && grey[i] <= kSeamGrey; ++n, i += side) valid[i] = 0;
     if (i != end) valid[i] = 0;  // the blended pixel
   }
 }
+
+namespace {
 
 /// Grey value and validity of row y of an 8-bit mono or BGR input: returns
 /// the input row itself when it is mono, else `luma_row` filled.

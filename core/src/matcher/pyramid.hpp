@@ -19,6 +19,16 @@ namespace detail {
 void validityOfMonoRow(const uchar* src, int w, int saturated, uchar* valid);
 /// Grey level (Rec. 601 luma, as the matcher takes it) and validity of a BGR row.
 void lumaOfBgrRow(const uchar* bgr, int w, int saturated, uchar* grey, uchar* valid);
+/// Rectification leaves more than black outside the view: interpolating the
+/// image against its black frame gives a seam of dark pixels (grey 1-20 in
+/// endoscope recordings) and one blended pixel before the tissue. As a
+/// texture, that frame edge matches the other view's frame edge, which sits
+/// at another offset: a strip of wrong disparities along the border. So where
+/// a row starts or ends in black (the frame always reaches the image's edge),
+/// the dark pixels (grey <= 20) after the black, up to 8 of them, and the
+/// pixel after those are made invalid too. Black holes inside the view (dead
+/// pixels, a masked tool) are not frames and keep their neighbours.
+void invalidateSeams(const uchar* grey, int w, uchar* valid);
 
 /// Levels a pyramid may have: coarsest_level is at most 10 (see params).
 constexpr int kMaxPyramidLevels = 11;

@@ -1,6 +1,7 @@
 // The mirrored pyramid of the left-right check (pyramid.hpp): its
 // finest level holds one search band of rows at a time, and every row it
-// holds must equal the row of the whole mirrored level, bit for bit.
+// holds must equal the row of the whole mirrored level, bit for bit. And the
+// rectification seams each input row loses with its black frame.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -114,6 +115,52 @@ TEST(MirroredPyramid, BandedLevelHoldsTheRowsOfTheWholeOne) {
   // Coarser levels are mirrored whole.
   EXPECT_EQ(banded.level(2).first_row, 0);
   expectSameRows(banded.level(2), whole.level(2), 0, whole.level(2).height);
+}
+
+/// What invalidateSeams must do, one pixel at a time.
+void seamsOnePixelAtATime(const uchar* grey, int w, uchar* valid) {
+  for (const int side : {+1, -1}) {
+    int i = side > 0 ? 0 : w - 1;
+    const int end = side > 0 ? w : -1;
+    if (valid[i]) continue;
+    while (i != end && !valid[i]) i += side;
+    for (int n = 0; n < 8 && i != end && grey[i] <= 20; ++n, i += side) valid[i] = 0;
+    if (i != end) valid[i] = 0;
+  }
+}
+
+// Black frames of every width on either side (none, a few pixels, past a
+// word of eight, the whole row), dark seams of every length behind them,
+// black holes inside: the frame, its seam and the blended pixel are taken
+// out, nothing else.
+TEST(StereoPyramid, SeamsAfterTheBlackFrameAreOutsideTheView) {
+  cv::RNG rng(3);
+  int rows_with_frames = 0, seam_pixels = 0;
+  for (const int w : {1, 7, 8, 9, 31, 200}) {
+    for (int trial = 0; trial < 400; ++trial) {
+      std::vector<uchar> grey(static_cast<size_t>(w)), valid(grey.size());
+      for (uchar& g : grey) g = static_cast<uchar>(rng.uniform(21, 256));
+      const int left = rng.uniform(0, w + 1), right = rng.uniform(0, w + 1);
+      for (int x = 0; x < left; ++x) grey[static_cast<size_t>(x)] = 0;
+      for (int x = w - right; x < w; ++x) grey[static_cast<size_t>(x)] = 0;
+      for (int k = rng.uniform(0, 10), x = left; k > 0 && x < w; --k, ++x) {
+        if (grey[static_cast<size_t>(x)] != 0) grey[static_cast<size_t>(x)] = static_cast<uchar>(rng.uniform(1, 21));
+      }
+      for (int x = w - right - 1, k = rng.uniform(0, 10); k > 0 && x >= 0; --k, --x) {
+        if (grey[static_cast<size_t>(x)] != 0) grey[static_cast<size_t>(x)] = static_cast<uchar>(rng.uniform(1, 21));
+      }
+      if (w > 20 && rng.uniform(0, 2)) grey[static_cast<size_t>(w / 2)] = 0;  // a hole, not a frame
+      for (size_t x = 0; x < grey.size(); ++x) valid[x] = grey[x] != 0;
+      std::vector<uchar> expected = valid;
+      seamsOnePixelAtATime(grey.data(), w, expected.data());
+      bdis::detail::invalidateSeams(grey.data(), w, valid.data());
+      ASSERT_EQ(valid, expected) << "w " << w << ", frames " << left << " / " << right;
+      rows_with_frames += left > 0 || right > 0;
+      for (size_t x = 0; x < grey.size(); ++x) seam_pixels += grey[x] != 0 && !valid[x];
+    }
+  }
+  EXPECT_GT(rows_with_frames, 2000);
+  EXPECT_GT(seam_pixels, 4000);  // 4935 with this seed
 }
 
 TEST(StereoPyramid, ClippedPixelsAreOutsideTheView) {
