@@ -2,7 +2,8 @@
 # The benchmark command: builds the package if needed, then prints one table
 # for this machine (CPU name, family / model, cache sizes and widest SIMD
 # extension from /proc/cpuinfo and sysfs):
-#  - per synthetic sequence of the shared data folder, the median over all its
+#  - per synthetic and per in-vivo sequence of the shared data folder (the
+#    in-vivo frames carry a black rectification frame), the median over all its
 #    frames (each timed several times) of the per-frame compute time of bdis
 #    fast / balanced / accurate and OpenCV DIS fast, in the same run, pinned to
 #    one core, single-threaded, and the ratio to DIS fast;
