@@ -195,7 +195,7 @@ class TestNodeletParams(unittest.TestCase):
             # And without a confidence subscriber: the same estimates.
             confidence.close()
             confidence = None
-            u.wait_for(lambda: self.subscribers(ns + "/confidence") == 0, 10.0, "the confidence unsubscribed")
+            u.wait_for(lambda: not u.common.subscribers(ns + "/confidence"), 10.0, "the confidence unsubscribed")
             rospy.sleep(0.5)  # the nodelet's publisher sees the link go
             unsubscribed = estimates(self.first_disparity(ns))
             self.assertTrue((unsubscribed == left).all())
@@ -204,12 +204,6 @@ class TestNodeletParams(unittest.TestCase):
                 confidence.close()
             client.close()
             node.close()
-
-    @staticmethod
-    def subscribers(topic):
-        import rosgraph
-        _, subs, _ = rosgraph.Master("/test_nodelet_params").getSystemState()
-        return sum(len(nodes) for name, nodes in subs if name == topic)
 
 
 def _services():

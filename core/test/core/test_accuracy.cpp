@@ -36,17 +36,20 @@ class OnSharedData : public ::testing::TestWithParam<Bar> {
       GTEST_SKIP() << "shared data folder not found; set BDIS_DATA_DIR";
     }
   }
-  /// Runs the balanced preset over every frame of `sequence` (with ground
-  /// truth) and hands each frame's left image, ground truth and result to `use`.
+  /// Runs `params` (the balanced preset unless given) over every frame of
+  /// `sequence` (with ground truth) and hands each frame's left image, ground
+  /// truth and result to `use`.
   template <typename Use>
-  void matchEveryFrame(const char* sequence, Use&& use) const {
+  void matchEveryFrame(const char* sequence, Use&& use,
+                       const bdis::MatcherParams& params = bdis::MatcherParams::preset("balanced"),
+                       const bdis::MatchOutputs& outputs = {}) const {
     const bdis::StereoSequence seq = bdis::StereoSequence::open(data_ + "/" + sequence);
     ASSERT_TRUE(seq.has_ground_truth);
-    bdis::Matcher matcher(bdis::MatcherParams::preset("balanced"));
+    bdis::Matcher matcher(params);
     bdis::MatchResult result;
     for (size_t i = 0; i < seq.names.size(); ++i) {
       const cv::Mat left = seq.left(i);
-      matcher.compute(left, seq.right(i), result);
+      matcher.compute(left, seq.right(i), result, outputs);
       use(left, seq.groundTruth(i), result);
     }
   }
@@ -137,17 +140,14 @@ TEST_P(DefaultPresetMinConfidence, KeepsTheThresholdTablesDensityAndBad2) {
   const ThresholdBar bar = GetParam();
   bdis::MatcherParams params = bdis::MatcherParams::preset("balanced");
   params.min_confidence = bar.min_confidence;
-  const bdis::StereoSequence seq = bdis::StereoSequence::open(data_ + "/" + bar.sequence);
-  ASSERT_TRUE(seq.has_ground_truth);
-  bdis::Matcher matcher(params);
-  bdis::MatchResult result;
   bdis::DisparityScore score;
-  for (size_t i = 0; i < seq.names.size(); ++i) {
-    const cv::Mat left = seq.left(i);
-    // The node's way when nobody subscribes to the confidence: it still decides.
-    matcher.compute(left, seq.right(i), result, bdis::MatchOutputs{false, false});
-    score.add(bdis::scoreDisparity(result.disparity, seq.groundTruth(i), left));
-  }
+  // The node's way when nobody subscribes to the confidence: it still decides.
+  ASSERT_NO_FATAL_FAILURE(matchEveryFrame(
+      bar.sequence,
+      [&](const cv::Mat& left, const cv::Mat& gt, const bdis::MatchResult& result) {
+        score.add(bdis::scoreDisparity(result.disparity, gt, left));
+      },
+      params, bdis::MatchOutputs{false, false}));
   std::printf("%s, min_confidence %g: density %.3f bad2 %.2f%%\n", bar.sequence, bar.min_confidence,
               score.density(), 100 * score.bad2Rate());
   EXPECT_GE(score.density(), bar.min_density);
