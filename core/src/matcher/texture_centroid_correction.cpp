@@ -58,25 +58,54 @@ BDIS_ROW_LOOP void verticalMomentsRow(int w, int rows, int first, const float* c
   }
 }
 
+/// An estimate d moved back along the slope (gx, gy) by its box's texture
+/// centroid offset (sum_x, sum_y) / sum, by at most max_shift; holes stay.
+inline float centroidCorrected(float d, float gx, float gy, float sum, float sum_x, float sum_y, float max_shift) {
+  // No texture, no centroid: a box whose squared gradients sum to less
+  // than 1e-3 (grey levels per px, squared) moves nothing.
+  const bool textured = sum > 1e-3f;
+  const float inv_sum = 1.f / (textured ? sum : 1.f);
+  const float offset = textured ? (gx * sum_x + gy * sum_y) * inv_sum : 0.f;
+  const float shift = std::min(std::max(offset, -max_shift), max_shift);
+  return d >= 0.f ? std::max(d - shift, 0.f) : d;
+}
+
+/// Columns [begin, end) of one row, each with the slope at its own column.
 /// `mean`, `above` and `below` point at column 0 of padded box-mean rows.
 BDIS_ROW_LOOP
-void correctRow(int w, int r, const float* __restrict above, const float* __restrict mean,
+void correctRow(int begin, int end, int r, const float* __restrict above, const float* __restrict mean,
                 const float* __restrict below, const float* __restrict sum, const float* __restrict sum_x,
                 const float* __restrict sum_y, float max_shift, float* __restrict disparity) {
   const float inv_step = 1.f / static_cast<float>(r);
-  for (int x = 0; x < w; ++x) {
+  for (int x = begin; x < end; ++x) {
     const float gx = slopeAcross(mean[x - r], mean[x], mean[x + r], inv_step);
     const float gy = slopeAcross(above[x], mean[x], below[x], inv_step);
-    // No texture, no centroid: a box whose squared gradients sum to less
-    // than 1e-3 (grey levels per px, squared) moves nothing.
-    const bool textured = sum[x] > 1e-3f;
-    const float inv_sum = 1.f / (textured ? sum[x] : 1.f);
-    const float offset = textured ? (gx * sum_x[x] + gy * sum_y[x]) * inv_sum : 0.f;
-    const float shift = std::min(std::max(offset, -max_shift), max_shift);
-    const float d = disparity[x];
-    disparity[x] = d >= 0.f ? std::max(d - shift, 0.f) : d;
+    disparity[x] = centroidCorrected(disparity[x], gx, gy, sum[x], sum_x[x], sum_y[x], max_shift);
   }
 }
+
+/// Columns [begin, end) of one row with the slope along x of column
+/// `slope_column` (along y each its own).
+void correctColumnsWithSlopeOf(int slope_column, int begin, int end, int r, const float* above, const float* mean,
+                               const float* below, const float* sum, const float* sum_x, const float* sum_y,
+                               float max_shift, float* disparity) {
+  const float inv_step = 1.f / static_cast<float>(r);
+  const float gx = slopeAcross(mean[slope_column - r], mean[slope_column], mean[slope_column + r], inv_step);
+  for (int x = begin; x < end; ++x) {
+    const float gy = slopeAcross(above[x], mean[x], below[x], inv_step);
+    disparity[x] = centroidCorrected(disparity[x], gx, gy, sum[x], sum_x[x], sum_y[x], max_shift);
+  }
+}
+
+/// The pixels nearer a side than `3 r` take the slope there. Within r of
+/// the side the estimates lean towards the inside (the patches covering
+/// them all lie further in, so they flatten a slope towards the side:
+/// what this correction undoes), and every box mean whose box reaches that
+/// strip carries it into the slope, as does a box clipped by the side.
+/// From 3 r in, the central difference's boxes (r either way, radius r)
+/// reach neither. 0 where the map is too small to have both sides' columns
+/// apart: every pixel its own slope.
+int sideStrip(int size, int r) { return size > 6 * r + 1 ? 3 * r : 0; }
 
 }  // namespace
 
@@ -118,6 +147,7 @@ void TextureCentroidCorrection::apply(const PyramidLevel& level, int patch_px, f
     }
   };
   const float* none = mean_[h] + r;
+  const int strip_columns = sideStrip(w, r), strip_rows = sideStrip(h, r);
   int next = 0;  // the next row whose horizontal sums the ring gets
   for (int y = 0; y < h; ++y) {
     // The box's rows, likewise against the top or bottom within r of them.
@@ -134,8 +164,18 @@ void TextureCentroidCorrection::apply(const PyramidLevel& level, int patch_px, f
       verticalMomentsRow<0>(w, ring, top - y, energy_rows_.data(), moment_rows_.data(), sum_.data(), sum_x_.data(),
                             sum_y_.data());
     }
-    correctRow(w, r, y >= r ? mean_[y - r] + r : none, mean_[y] + r, y + r < h ? mean_[y + r] + r : none,
-               sum_.data(), sum_x_.data(), sum_y_.data(), max_shift, disparity[y]);
+    // The slopes of rows within the strip by a side are those of the row
+    // the strip ends at, for the same reason as the columns'.
+    const int ys = std::min(std::max(y, strip_rows), h - 1 - strip_rows);
+    const float* above = ys >= r ? mean_[ys - r] + r : none;
+    const float* mean = mean_[ys] + r;
+    const float* below = ys + r < h ? mean_[ys + r] + r : none;
+    correctRow(strip_columns, w - strip_columns, r, above, mean, below, sum_.data(), sum_x_.data(), sum_y_.data(),
+               max_shift, disparity[y]);
+    correctColumnsWithSlopeOf(strip_columns, 0, strip_columns, r, above, mean, below, sum_.data(), sum_x_.data(),
+                              sum_y_.data(), max_shift, disparity[y]);
+    correctColumnsWithSlopeOf(w - 1 - strip_columns, w - strip_columns, w, r, above, mean, below, sum_.data(),
+                              sum_x_.data(), sum_y_.data(), max_shift, disparity[y]);
   }
 }
 

@@ -83,12 +83,34 @@ TEST(TextureCentroidCorrection, TextureOnOneSideMovesAlongTheSlopeInY) {
 // Within a patch side of the image's side the box lies against it, as the
 // patches do: at x = 1 it spans columns 0..8, so texture in columns 6..8
 // (centred on 7, 6 px right) counts, which a box clipped to 0..5 would miss.
-// The slope there is one-sided: box means at x = 1 (columns 0..5) and x = 5
-// (1..9), 0.2 x 2.5 px apart over 4 px, 0.125; the estimate moves by 0.75.
+// The slope is the one 3 r = 12 columns in (box means at 8 and 16, both
+// whole), 0.15: the estimate moves by 0.9.
 TEST(TextureCentroidCorrection, BoxesLieAgainstTheImageSides) {
-  const cv::Mat1f d = plane(10.f, 0.2f, 0.f);
+  const cv::Mat1f d = plane(10.f, 0.15f, 0.f);
   const cv::Mat1f out = corrected(levelWith([](int x, int) { return x >= 6 && x <= 8 ? 4.f : 0.f; }), d.clone());
-  for (int y = 4; y < kH - 4; ++y) ASSERT_NEAR(out(y, 1), d(y, 1) - 0.75f, 1e-4f) << "row " << y;
+  for (int y = 4; y < kH - 4; ++y) ASSERT_NEAR(out(y, 1), d(y, 1) - 0.9f, 1e-4f) << "row " << y;
+}
+
+// What the fusion leaves by the sides of a slanted plane: within a half
+// patch (4 px) of a side every patch covering a pixel lies further in, so
+// the estimates there stay at the value 4 px in. Uniform texture centres each
+// box (against the side) 4 - k px in from the pixel k px from the side, and
+// the slope from box means clear of that strip moves each estimate back onto
+// the plane, corners included. (A slope from the box means beside the side
+// sees the flat strip: at x = 0 a one-sided slope from the box means at 0
+// and 4 is 0.042 of the 0.15.)
+TEST(TextureCentroidCorrection, EstimatesFlattenedBySideCoverageReturnToThePlane) {
+  const cv::Mat1f truth = plane(10.f, 0.15f, 0.05f);
+  cv::Mat1f d(kH, kW);
+  const int r = kPatch / 2;
+  for (int y = 0; y < kH; ++y) {
+    for (int x = 0; x < kW; ++x) d(y, x) = truth(std::clamp(y, r, kH - 1 - r), std::clamp(x, r, kW - 1 - r));
+  }
+  const cv::Mat1f out = corrected(levelWith([](int, int) { return 5.f; }), d.clone());
+  EXPECT_GT(cv::norm(d, truth, cv::NORM_INF), 0.7);  // 0.15 x 4 + 0.05 x 4 at the corners
+  for (int y = 0; y < kH; ++y) {
+    for (int x = 0; x < kW; ++x) ASSERT_NEAR(out(y, x), truth(y, x), 1e-4f) << x << ", " << y;
+  }
 }
 
 TEST(TextureCentroidCorrection, NoTextureAndHolesStayAsTheyAre) {
