@@ -271,9 +271,17 @@ void VariationalRefinement::fixedPointStep(const PyramidLevel& level, cv::Mat1f*
       smoothnessRow(w, half_alpha, start(y), t(y), has_below ? start(y + 1) : nullptr, has_below ? t(y + 1) : nullptr,
                     right(y), down(y + 1));
       prepareDataTermRow(level, y);
+      // The top and bottom rows have their vertical links on the inside only,
+      // so those links' pull towards the next row's start is one-sided: on a
+      // surface slanted along the columns it drags the row towards flat (too
+      // far where the surface rises towards the side), where a row inside is
+      // pulled both ways and stays. They read their own start for the row
+      // beyond instead, which leaves that pull out; their increments stay
+      // linked to the next row's.
+      const bool side_row = y == 0 || y == h - 1;
       systemRow(w, data_rows_[kIx], data_rows_[kDifference], data_rows_[kNorm], data_rows_[kIxx], data_rows_[kIxz],
-                data_rows_[kNormX], t(y), right(y), down(y), down(y + 1), start(y), start(std::max(y - 1, 0)),
-                start(std::min(y + 1, h - 1)), inv_diagonal(y), rhs(y));
+                data_rows_[kNormX], t(y), right(y), down(y), down(y + 1), start(y), side_row ? start(y) : start(y - 1),
+                side_row ? start(y) : start(y + 1), inv_diagonal(y), rhs(y));
     }
     for (int k = 0; k < kStages; ++k) {
       const int y = step - k;
