@@ -172,10 +172,12 @@ void TextureCentroidCorrection::apply(const PyramidLevel& level, int patch_px, f
     const float* below = ys + r < h ? mean_[ys + r] + r : none;
     correctRow(strip_columns, w - strip_columns, r, above, mean, below, sum_.data(), sum_x_.data(), sum_y_.data(),
                max_shift, disparity[y]);
-    correctColumnsWithSlopeOf(strip_columns, 0, strip_columns, r, above, mean, below, sum_.data(), sum_x_.data(),
-                              sum_y_.data(), max_shift, disparity[y]);
-    correctColumnsWithSlopeOf(w - 1 - strip_columns, w - strip_columns, w, r, above, mean, below, sum_.data(),
-                              sum_x_.data(), sum_y_.data(), max_shift, disparity[y]);
+    if (strip_columns > 0) {
+      correctColumnsWithSlopeOf(strip_columns, 0, strip_columns, r, above, mean, below, sum_.data(), sum_x_.data(),
+                                sum_y_.data(), max_shift, disparity[y]);
+      correctColumnsWithSlopeOf(w - 1 - strip_columns, w - strip_columns, w, r, above, mean, below, sum_.data(),
+                                sum_x_.data(), sum_y_.data(), max_shift, disparity[y]);
+    }
   }
 }
 

@@ -35,9 +35,9 @@ class TextureCentroidCorrection {
   /// slope there (the slant cue's: central differences of the estimates'
   /// box means, r to each side; within 3 r of a side, the slope 3 r from it,
   /// whose boxes clear the strip the side's patches flatten). The estimate
-  /// becomes d - g . c, with g . c
-  /// limited to +-`max_shift` (level px; beyond it the slope is a depth
-  /// jump, not a surface) and the result to d >= 0. A box without texture
+  /// becomes d - g . c, with g . c limited to +-`max_shift` (level px;
+  /// beyond it the slope is a depth jump, not a surface) and the result to
+  /// d >= 0. A box without texture
   /// moves nothing; a map under 2 r + 1 px on a side is left as it is.
   /// Buffers are kept for the next frame of the same size.
   void apply(const PyramidLevel& level, int patch_px, float max_shift, cv::Mat1f& disparity);
