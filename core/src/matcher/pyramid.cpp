@@ -20,8 +20,8 @@ void validityOfMonoRow(const uchar* __restrict src, int w, int saturated, uchar*
 // Read interleaved. Luma is a whole number: kept in 8 bits, a quarter of the
 // memory traffic of floats.
 BDIS_ROW_LOOP
-void lumaOfBgrRow(const uchar* __restrict bgr, int w, int saturated, uchar* __restrict grey,
-                  uchar* __restrict valid) {
+void lumaOfBgrRowPortable(const uchar* __restrict bgr, int w, int saturated, uchar* __restrict grey,
+                          uchar* __restrict valid) {
   for (int x = 0; x < w; ++x) {
     const uchar b = bgr[3 * x], gr = bgr[3 * x + 1], r = bgr[3 * x + 2];
     // Rec. 601 luma in 8.8 fixed point (within 1 grey level of cv::cvtColor).
@@ -29,6 +29,17 @@ void lumaOfBgrRow(const uchar* __restrict bgr, int w, int saturated, uchar* __re
     grey[x] = static_cast<uchar>(luma >> 8);
     valid[x] = ((b | gr | r) != 0) & ((luma >> 8) < saturated);
   }
+}
+
+void lumaOfBgrRow(const uchar* bgr, int w, int saturated, uchar* grey, uchar* valid) {
+#ifdef BDIS_HAVE_AVX2_KERNELS
+  static const bool has_avx2 = kernelIsaAvailable(KernelIsa::Avx2);
+  if (has_avx2) {
+    lumaOfBgrRowAvx2(bgr, w, saturated, grey, valid);
+    return;
+  }
+#endif
+  lumaOfBgrRowPortable(bgr, w, saturated, grey, valid);
 }
 
 void StereoPyramid::scaleRightView(int s, float factor) {

@@ -17,8 +17,14 @@ namespace detail {
 /// Validity of an 8-bit mono row: 0 where the pixel is black (outside the
 /// rectified view) or its grey level reaches `saturated` (256: never).
 void validityOfMonoRow(const uchar* src, int w, int saturated, uchar* valid);
-/// Grey level (Rec. 601 luma, as the matcher takes it) and validity of a BGR row.
+/// Grey level (Rec. 601 luma, as the matcher takes it) and validity of a BGR
+/// row: the AVX2 kernel on CPUs that have it, else the portable loop. Both give
+/// the same bytes.
 void lumaOfBgrRow(const uchar* bgr, int w, int saturated, uchar* grey, uchar* valid);
+void lumaOfBgrRowPortable(const uchar* bgr, int w, int saturated, uchar* grey, uchar* valid);
+#ifdef BDIS_HAVE_AVX2_KERNELS
+void lumaOfBgrRowAvx2(const uchar* bgr, int w, int saturated, uchar* grey, uchar* valid);
+#endif
 /// Rectification leaves more than black outside the view: interpolating the
 /// image against its black frame gives a seam of dark pixels (grey 1-20 in
 /// endoscope recordings) and one blended pixel before the tissue. As a

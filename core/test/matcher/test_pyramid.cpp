@@ -14,6 +14,8 @@
 
 namespace {
 
+using bdis::detail::lumaOfBgrRow;
+using bdis::detail::lumaOfBgrRowPortable;
 using bdis::detail::MirroredPyramid;
 using bdis::detail::PyramidLevel;
 using bdis::detail::StereoPyramid;
@@ -180,6 +182,44 @@ TEST(StereoPyramid, ClippedPixelsAreOutsideTheView) {
     // Level 1 averages 2x2 pixels: valid only where all four are.
     EXPECT_EQ(p.level(1).leftValidRow(5)[5] == 0, clipped_invalid) << saturation;
   }
+}
+
+TEST(StereoPyramid, GreyAndValidityOfBgrRowsFollowTheLumaFormula) {
+  // Rec. 601 luma in 8.8 fixed point; black pixels and grey levels from
+  // `saturated` on invalid. Every row width from 1 to 100 takes the SIMD
+  // kernel's whole blocks and its tail apart; the dispatching function and
+  // the portable loop must give the same bytes.
+  cv::RNG rng(3);
+  int black = 0, clipped = 0;
+  for (int w = 1; w <= 100; ++w) {
+    for (const int saturated : {-1, 0, 1, 128, 250, 255, 256, 300}) {
+      cv::Mat row(1, w, CV_8UC3);
+      rng.fill(row, cv::RNG::UNIFORM, 0, 256);
+      for (int x = 0; x < w; ++x) {
+        const int kind = rng.uniform(0, 6);
+        if (kind == 0) row.at<cv::Vec3b>(0, x) = cv::Vec3b(0, 0, 0);
+        if (kind == 1) row.at<cv::Vec3b>(0, x) = cv::Vec3b(255, 255, 255);
+        if (kind == 2) row.at<cv::Vec3b>(0, x) = cv::Vec3b(0, 0, static_cast<uchar>(rng.uniform(1, 256)));
+      }
+      std::vector<uchar> grey(w), valid(w), portable_grey(w), portable_valid(w);
+      lumaOfBgrRow(row.ptr(), w, saturated, grey.data(), valid.data());
+      lumaOfBgrRowPortable(row.ptr(), w, saturated, portable_grey.data(), portable_valid.data());
+      for (int x = 0; x < w; ++x) {
+        const cv::Vec3b px = row.at<cv::Vec3b>(0, x);
+        const int expected_grey = (29 * px[0] + 150 * px[1] + 77 * px[2] + 128) >> 8;
+        const bool is_black = px == cv::Vec3b(0, 0, 0);
+        const int expected_valid = !is_black && expected_grey < saturated;
+        black += is_black;
+        clipped += !is_black && expected_grey >= saturated;
+        ASSERT_EQ(grey[x], expected_grey) << "w " << w << " x " << x;
+        ASSERT_EQ(valid[x], expected_valid) << "w " << w << " x " << x << " saturated " << saturated;
+        ASSERT_EQ(portable_grey[x], grey[x]) << "w " << w << " x " << x;
+        ASSERT_EQ(portable_valid[x], valid[x]) << "w " << w << " x " << x;
+      }
+    }
+  }
+  EXPECT_GT(black, 3000);    // both validity cases occur often
+  EXPECT_GT(clipped, 10000);
 }
 
 }  // namespace
