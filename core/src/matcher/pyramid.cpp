@@ -33,8 +33,9 @@ void lumaOfBgrRowPortable(const uchar* __restrict bgr, int w, int saturated, uch
 
 void lumaOfBgrRow(const uchar* bgr, int w, int saturated, uchar* grey, uchar* valid) {
 #ifdef BDIS_HAVE_AVX2_KERNELS
-  static const bool has_avx2 = kernelIsaAvailable(KernelIsa::Avx2);
-  if (has_avx2) {
+  // As the patch kernels: BDIS_SIMD=off or =baseline keeps the portable loop.
+  static const bool use_avx2 = bestKernelIsa() == KernelIsa::Avx2;
+  if (use_avx2) {
     lumaOfBgrRowAvx2(bgr, w, saturated, grey, valid);
     return;
   }

@@ -18,8 +18,8 @@ namespace detail {
 /// rectified view) or its grey level reaches `saturated` (256: never).
 void validityOfMonoRow(const uchar* src, int w, int saturated, uchar* valid);
 /// Grey level (Rec. 601 luma, as the matcher takes it) and validity of a BGR
-/// row: the AVX2 kernel on CPUs that have it, else the portable loop. Both give
-/// the same bytes.
+/// row: the AVX2 kernel where the patch kernels are AVX2 ones (bestKernelIsa),
+/// else the portable loop. Both give the same bytes.
 void lumaOfBgrRow(const uchar* bgr, int w, int saturated, uchar* grey, uchar* valid);
 void lumaOfBgrRowPortable(const uchar* bgr, int w, int saturated, uchar* grey, uchar* valid);
 #ifdef BDIS_HAVE_AVX2_KERNELS
