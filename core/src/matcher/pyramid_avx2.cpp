@@ -1,17 +1,16 @@
 // The pyramid's one input kernel with AVX2 intrinsics (this file only is built
-// with -mavx2; pyramid.cpp calls it on CPUs that have AVX2). The compiler's own
-// vectorisation of the interleaved BGR loop takes twice the time of this
-// byte shuffle: its reads of three bytes a pixel become long chains of
-// permutes.
+// with -mavx2; pyramid.cpp calls it where the patch kernels are AVX2 ones).
+// The compiler's own vectorisation of the interleaved BGR loop takes twice the
+// time of this byte shuffle: its reads of three bytes a pixel become long
+// chains of permutes. No library headers here: an inline function compiled
+// with AVX2 in this file could be the copy the linker keeps for every caller.
 #include <immintrin.h>
-
-#include <algorithm>
-#include <cstdint>
-
-#include "pyramid.hpp"
 
 namespace bdis {
 namespace detail {
+
+using uchar = unsigned char;
+void lumaOfBgrRowPortable(const uchar* bgr, int w, int saturated, uchar* grey, uchar* valid);
 
 namespace {
 
@@ -49,7 +48,9 @@ void lumaOfBgrRowAvx2(const uchar* __restrict bgr, int w, int saturated, uchar* 
   const __m256i weights_br = _mm256_set1_epi16(static_cast<short>(29 | (77 << 8)));
   const __m256i weight_g = _mm256_set1_epi16(150);
   const __m256i rounding = _mm256_set1_epi16(128);
-  const __m256i saturated_at = _mm256_set1_epi16(static_cast<short>(std::clamp(saturated, -1, 256)));
+  // Grey levels are 0-255: any threshold outside -1..256 acts as its end.
+  const int threshold = saturated < -1 ? -1 : (saturated > 256 ? 256 : saturated);
+  const __m256i saturated_at = _mm256_set1_epi16(static_cast<short>(threshold));
   const __m256i zero = _mm256_setzero_si256();
   const __m256i one = _mm256_set1_epi8(1);
   int x = 0;
