@@ -27,6 +27,24 @@ inline __m256i laneShuffle(char a0, char a1, char a2, char a3, char a4, char a5,
                           a3, a4, a5, a6, a7, a8, a9, a10, a11, a12, a13, a14, a15);
 }
 
+/// The luma of 16 pixels, given their (b, r) byte pairs and their green
+/// words: 29 b + 150 g + 77 r + 128, shifted down by 8. The sum is at most
+/// 65408, so unsigned 16-bit words hold it; b and r times their weights (at
+/// most 27030) do not saturate the signed multiply-add.
+inline __m256i lumaWords(__m256i blue_red, __m256i green) {
+  const __m256i weights_br = _mm256_set1_epi16(static_cast<short>(29 | (77 << 8)));
+  const __m256i sum = _mm256_add_epi16(_mm256_maddubs_epi16(blue_red, weights_br),
+                                       _mm256_mullo_epi16(green, _mm256_set1_epi16(150)));
+  return _mm256_srli_epi16(_mm256_add_epi16(sum, _mm256_set1_epi16(128)), 8);
+}
+
+/// All ones where a pixel is not black (its (b, r) word or its green word is
+/// not 0) and its luma is below `saturated_at`.
+inline __m256i validWords(__m256i blue_red, __m256i green, __m256i luma, __m256i saturated_at) {
+  const __m256i black = _mm256_cmpeq_epi16(_mm256_or_si256(blue_red, green), _mm256_setzero_si256());
+  return _mm256_andnot_si256(black, _mm256_cmpgt_epi16(saturated_at, luma));
+}
+
 }  // namespace
 
 void lumaOfBgrRowAvx2(const uchar* __restrict bgr, int w, int saturated, uchar* __restrict grey,
@@ -42,16 +60,9 @@ void lumaOfBgrRowAvx2(const uchar* __restrict bgr, int w, int saturated, uchar* 
   const __m256i g_lo_from_b = laneShuffle(-1, -1, -1, -1, -1, -1, -1, -1, -1, -1, 0, -1, 3, -1, 6, -1);
   const __m256i g_hi_from_b = laneShuffle(9, -1, 12, -1, 15, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1);
   const __m256i g_hi_from_c = laneShuffle(-1, -1, -1, -1, -1, -1, 2, -1, 5, -1, 8, -1, 11, -1, 14, -1);
-  // The weights of lumaOfBgrRow: 29 b + 150 g + 77 r + 128, at most 65408,
-  // so unsigned 16-bit words hold it; b and r times their weights (at most
-  // 27030) do not saturate the signed multiply-add.
-  const __m256i weights_br = _mm256_set1_epi16(static_cast<short>(29 | (77 << 8)));
-  const __m256i weight_g = _mm256_set1_epi16(150);
-  const __m256i rounding = _mm256_set1_epi16(128);
   // Grey levels are 0-255: any threshold outside -1..256 acts as its end.
   const int threshold = saturated < -1 ? -1 : (saturated > 256 ? 256 : saturated);
   const __m256i saturated_at = _mm256_set1_epi16(static_cast<short>(threshold));
-  const __m256i zero = _mm256_setzero_si256();
   const __m256i one = _mm256_set1_epi8(1);
   int x = 0;
   for (; x + 32 <= w; x += 32) {
@@ -63,22 +74,13 @@ void lumaOfBgrRowAvx2(const uchar* __restrict bgr, int w, int saturated, uchar* 
     const __m256i br_hi = _mm256_or_si256(_mm256_shuffle_epi8(b, br_hi_from_b), _mm256_shuffle_epi8(c, br_hi_from_c));
     const __m256i g_lo = _mm256_or_si256(_mm256_shuffle_epi8(a, g_lo_from_a), _mm256_shuffle_epi8(b, g_lo_from_b));
     const __m256i g_hi = _mm256_or_si256(_mm256_shuffle_epi8(b, g_hi_from_b), _mm256_shuffle_epi8(c, g_hi_from_c));
-    const __m256i luma_lo = _mm256_srli_epi16(
-        _mm256_add_epi16(_mm256_add_epi16(_mm256_maddubs_epi16(br_lo, weights_br), _mm256_mullo_epi16(g_lo, weight_g)),
-                         rounding),
-        8);
-    const __m256i luma_hi = _mm256_srli_epi16(
-        _mm256_add_epi16(_mm256_add_epi16(_mm256_maddubs_epi16(br_hi, weights_br), _mm256_mullo_epi16(g_hi, weight_g)),
-                         rounding),
-        8);
+    const __m256i luma_lo = lumaWords(br_lo, g_lo);
+    const __m256i luma_hi = lumaWords(br_hi, g_hi);
     // Per lane the packs interleave lo and hi in pixel order, and the lanes
     // are pixels 0-15 and 16-31: the bytes come out in order.
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(grey + x), _mm256_packus_epi16(luma_lo, luma_hi));
-    // A pixel is black when its (b, r) word and its g word are both 0.
-    const __m256i valid_lo = _mm256_andnot_si256(_mm256_cmpeq_epi16(_mm256_or_si256(br_lo, g_lo), zero),
-                                                 _mm256_cmpgt_epi16(saturated_at, luma_lo));
-    const __m256i valid_hi = _mm256_andnot_si256(_mm256_cmpeq_epi16(_mm256_or_si256(br_hi, g_hi), zero),
-                                                 _mm256_cmpgt_epi16(saturated_at, luma_hi));
+    const __m256i valid_lo = validWords(br_lo, g_lo, luma_lo, saturated_at);
+    const __m256i valid_hi = validWords(br_hi, g_hi, luma_hi, saturated_at);
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(valid + x),
                         _mm256_and_si256(_mm256_packs_epi16(valid_lo, valid_hi), one));
   }
