@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
 #include <stdexcept>
 
 #include <opencv2/imgcodecs.hpp>
@@ -97,6 +98,50 @@ void writeDisparityPng(const std::string& path, const cv::Mat& disparity) {
     }
   }
   writeImage(path, raw);
+}
+
+namespace {
+
+/// The confidence of every estimate through `encode` (NaN as 0), 0 elsewhere.
+template <typename T, typename Encode>
+cv::Mat confidenceImage(const cv::Mat& disparity, const cv::Mat& confidence, int type, Encode encode) {
+  if (disparity.type() != CV_32FC1 || confidence.type() != CV_32FC1 || disparity.size() != confidence.size()) {
+    throw std::runtime_error("writing a confidence: disparity and confidence must be CV_32FC1 of one size");
+  }
+  cv::Mat out(confidence.size(), type);
+  for (int y = 0; y < out.rows; ++y) {
+    const float* d = disparity.ptr<float>(y);
+    const float* c = confidence.ptr<float>(y);
+    T* o = out.ptr<T>(y);
+    for (int x = 0; x < out.cols; ++x) o[x] = d[x] >= 0.f ? encode(std::isfinite(c[x]) ? c[x] : 0.f) : T(0);
+  }
+  return out;
+}
+
+}  // namespace
+
+void writeConfidencePng(const std::string& path, const cv::Mat& disparity, const cv::Mat& confidence) {
+  writeImage(path, confidenceImage<uint16_t>(disparity, confidence, CV_16UC1, [](float c) {
+               return static_cast<uint16_t>(std::clamp(std::lround(c * 65535.f), 1L, 65535L));
+             }));
+}
+
+void writeConfidenceTiff(const std::string& path, const cv::Mat& disparity, const cv::Mat& confidence) {
+  writeImage(path, confidenceImage<float>(disparity, confidence, CV_32FC1, [](float c) {
+               return std::max(std::min(c, 1.f), std::numeric_limits<float>::min());
+             }));
+}
+
+cv::Mat readConfidence(const std::string& path) {
+  const cv::Mat raw = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (raw.empty()) throw std::runtime_error("cannot read confidence " + path);
+  if (raw.type() == CV_32FC1) return raw;
+  if (raw.type() != CV_16UC1) {
+    throw std::runtime_error("confidence " + path + " is neither 16-bit nor 32-bit float single channel");
+  }
+  cv::Mat out;
+  raw.convertTo(out, CV_32FC1, 1.0 / 65535.0);
+  return out;
 }
 
 void writeImage(const std::string& path, const cv::Mat& image) {

@@ -41,6 +41,20 @@ cv::Mat readDisparityPng(const std::string& path);
 /// clamped to the 16-bit range. Throws std::runtime_error on failure.
 void writeDisparityPng(const std::string& path, const cv::Mat& disparity);
 
+/// Confidence as 16-bit PNG: value = round(c * 65535), 0 = no estimate. An
+/// estimate (disparity >= 0) is stored as at least 1, so that a confidence
+/// below 1 / 131070 (the confidence spans many decades) does not read as a
+/// missing one; pixels without an estimate are 0 whatever their confidence.
+/// The lowest confidences tie at 1: rank from writeConfidenceTiff's files.
+/// `disparity` and `confidence` are CV_32FC1 of one size. Throws std::runtime_error.
+void writeConfidencePng(const std::string& path, const cv::Mat& disparity, const cv::Mat& confidence);
+/// The same as a 32-bit float TIFF, exact: 0 = no estimate, an estimate's
+/// confidence at least the smallest normal float. `path` should end in .tiff.
+void writeConfidenceTiff(const std::string& path, const cv::Mat& disparity, const cv::Mat& confidence);
+/// Reads either file into CV_32FC1 in [0, 1] (a PNG's value / 65535). Throws
+/// std::runtime_error for anything else than 16-bit or 32-bit float single channel.
+cv::Mat readConfidence(const std::string& path);
+
 /// Reads an image as stored (IMREAD_UNCHANGED); 8-bit BGRA becomes BGR.
 /// Anything else (16-bit, float) is returned as is, so the matcher rejects it
 /// with its own message. Throws std::runtime_error naming the file when it is

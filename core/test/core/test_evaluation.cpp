@@ -219,6 +219,49 @@ TEST(EvaluationPng, ReadAndWriteRejectBadInput) {
                std::runtime_error);
 }
 
+TEST(EvaluationPng, ConfidenceKeepsEveryEstimateAndOnlyThem) {
+  // Row 0 has estimates, row 1 none: confidences of 0, far below the 16-bit
+  // step, about half a step, a step and a half, 0.5, 1, above 1 and NaN.
+  const cv::Mat d = (cv::Mat_<float>(2, 8) << 7.f, 7.f, 0.f, 3.f, 3.f, 3.f, 3.f, 3.f,  //
+                     kNoDisparity, kNoDisparity, kNaNf, -2.f, kNoDisparity, kNoDisparity, kNoDisparity, kNoDisparity);
+  const float step = 1.f / 65535;
+  const cv::Mat row = (cv::Mat_<float>(1, 8) << 0.f, 1e-9f, 0.49f * step, 1.5f * step, 0.5f, 1.f, 2.f, kNaNf);
+  cv::Mat c;
+  cv::vconcat(row, row, c);
+  TempPath file(".png");
+  bdis::writeConfidencePng(file.str(), d, c);
+  const cv::Mat raw = cv::imread(file.str(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(raw.type(), CV_16UC1);
+  const uint16_t expected[8] = {1, 1, 1, 2, 32768, 65535, 65535, 1};  // round(0.5 * 65535) = 32768
+  for (int x = 0; x < 8; ++x) {
+    EXPECT_EQ(raw.at<uint16_t>(0, x), expected[x]) << "estimate at " << x;
+    EXPECT_EQ(raw.at<uint16_t>(1, x), 0) << "no estimate at " << x;
+  }
+  const cv::Mat back = bdis::readConfidence(file.str());
+  ASSERT_EQ(back.type(), CV_32FC1);
+  EXPECT_FLOAT_EQ(back.at<float>(0, 4), 32768.f / 65535);
+  EXPECT_EQ(back.at<float>(1, 4), 0.f);
+
+  TempPath eight_bit(".png");
+  cv::imwrite(eight_bit.str(), cv::Mat(4, 4, CV_8UC1, cv::Scalar(3)));
+  EXPECT_THROW(bdis::readConfidence(eight_bit.str()), std::runtime_error);
+  EXPECT_THROW(bdis::writeConfidencePng(file.str(), d, c.colRange(0, 4)), std::runtime_error);
+
+  // The float TIFF: the same estimates, each confidence as it is (NaN 0 and
+  // above 1 clamped), strictly positive, so that 0 still means none.
+  TempPath tiff(".tiff");
+  bdis::writeConfidenceTiff(tiff.str(), d, c);
+  const cv::Mat exact = bdis::readConfidence(tiff.str());
+  ASSERT_EQ(exact.type(), CV_32FC1);
+  const float expected_float[8] = {std::numeric_limits<float>::min(), 1e-9f, 0.49f * step, 1.5f * step, 0.5f, 1.f, 1.f,
+                                   std::numeric_limits<float>::min()};
+  for (int x = 0; x < 8; ++x) {
+    EXPECT_EQ(exact.at<float>(0, x), expected_float[x]) << "estimate at " << x;
+    EXPECT_EQ(exact.at<float>(1, x), 0.f) << "no estimate at " << x;
+  }
+  EXPECT_THROW(bdis::writeConfidenceTiff(tiff.str(), d, c.colRange(0, 4)), std::runtime_error);
+}
+
 // ---------------------------------------------------------------------------
 // StereoSequence and findDataDir
 // ---------------------------------------------------------------------------
