@@ -57,12 +57,13 @@ options:
                        that frame sizes compare; the summary table only
   --json FILE          also write the results as JSON
   --dump-dir DIR       write every disparity as DIR/<sequence>/<method>/<frame>.png (16-bit, d*256)
+                       and a confidence beside it as conf_<stem>.tiff (32-bit float, exact)
   --predictions DIR    score disparities computed elsewhere (DIR/<frame>.png, 16-bit, d*256,
                        0 = none; e.g. recorded from the nodelet) as method 'predictions'; one
                        sequence only; frames without a file are skipped for every method;
                        other methods run only when --methods names them; a confidence
-                       DIR/conf_<frame>.png (16-bit, c*65535; what --dump-dir writes) is
-                       scored with it
+                       DIR/conf_<stem>.tiff (32-bit float; what --dump-dir writes) or
+                       DIR/conf_<frame>.png (16-bit, c*65535) is scored with it
   --max-image-pixels N refuse images (left, right, ground truth, predictions) of
                        more than N pixels (default 16777216 = 4096x4096, as the
                        nodelet's max_image_pixels); read from the file's header
@@ -135,7 +136,8 @@ Method makeSgbm() {
 }
 
 // Disparities computed elsewhere, one 16-bit PNG per frame name, and their
-// confidence where a conf_<frame>.png (16-bit, c * 65535) is there too.
+// confidence where a conf_<stem>.tiff (32-bit float) or conf_<frame>.png
+// (16-bit, c * 65535) is there too.
 Method makePredictions(const std::string& dir, const std::string* const* current_name,
                        std::size_t max_image_pixels) {
   auto confidence = std::make_shared<cv::Mat>();
@@ -145,15 +147,15 @@ Method makePredictions(const std::string& dir, const std::string* const* current
             const std::string prediction = (root / **current_name).string();
             checkImagePixels(prediction, max_image_pixels);
             d = readDisparityPng(prediction);
-            const std::filesystem::path conf = root / ("conf_" + **current_name);
             confidence->release();
+            std::filesystem::path conf = root / ("conf_" + std::filesystem::path(**current_name).stem().string() + ".tiff");
+            if (!std::filesystem::exists(conf)) conf = root / ("conf_" + **current_name);
             if (!std::filesystem::exists(conf)) return;
             checkImagePixels(conf.string(), max_image_pixels);
-            const cv::Mat raw = cv::imread(conf.string(), cv::IMREAD_UNCHANGED);
-            if (raw.type() != CV_16UC1 || raw.size() != d.size()) {
-              throw std::runtime_error(conf.string() + " is not a 16-bit confidence of the disparity's size");
+            *confidence = readConfidence(conf.string());
+            if (confidence->size() != d.size()) {
+              throw std::runtime_error(conf.string() + " is not a confidence of the disparity's size");
             }
-            raw.convertTo(*confidence, CV_32FC1, 1.0 / 65535.0);
           },
           [confidence] { return *confidence; }};
 }
@@ -256,9 +258,10 @@ void dumpMaps(const std::filesystem::path& dir, const std::string& name, const c
   std::filesystem::create_directories(dir);
   writeDisparityPng((dir / name).string(), disparity);
   if (confidence.empty()) return;
-  cv::Mat conf16;
-  confidence.convertTo(conf16, CV_16UC1, 65535.0);
-  writeImage((dir / ("conf_" + name)).string(), conf16);
+  // Exact: a 16-bit PNG ties the least confident estimates, and scoring those
+  // files would rank them worse than this run does.
+  writeConfidenceTiff((dir / ("conf_" + std::filesystem::path(name).stem().string() + ".tiff")).string(), disparity,
+                      confidence);
 }
 
 /// Every method on the frames of one sequence; one row per method.

@@ -47,9 +47,13 @@ Inputs: 8-bit mono, BGR or BGRA (alpha dropped) images of equal size and type,
 at least 32 px on each side and at most --max-image-pixels pixels. Pure black
 pixels are treated as outside the view.
 
-Outputs (all 16-bit single-channel PNG):
+Outputs (16-bit single-channel PNG, or a float TIFF for the confidence):
   disparity   round(d * 256), 0 = no estimate (estimates never round to 0)
-  confidence  round(c * 65535) for the confidence c in [0, 1]; 0 = no estimate
+  confidence  round(c * 65535) for the confidence c in [0, 1], 0 = no estimate;
+              estimates are stored as at least 1. The confidence spans many
+              decades (c < 1/131070 is common), so the least confident tie in
+              a PNG: to rank or threshold them, write a 32-bit float TIFF
+              (C.tiff, --confidence-format tiff), the exact c, 0 = no estimate
   variance    round(var * 256) for the disparity variance var in px^2, 0 = no
               estimate; estimates are stored as at least 1 and saturate at
               65535 (var >= 256 px^2)
@@ -58,12 +62,14 @@ options:
   --preset NAME            fast | balanced (default) | accurate
   --params FILE.yaml       parameter file on top of the preset
   --set NAME=VALUE         override one matcher parameter (repeatable)
-  --confidence C.png       also write the confidence (single pair)
+  --confidence C.png       also write the confidence (single pair); C.tiff
+                           writes it as a 32-bit float TIFF
   --variance V.png         also write the variance (single pair); turns on
                            compute_variance
   --left-dir L, --right-dir R, --out-dir O
                            directory mode (all three are needed)
   --confidence-dir DIR     directory mode: also write DIR/<name> confidence
+  --confidence-format F    png (default) or tiff: DIR/<stem>.tiff, 32-bit float
   --variance-dir DIR       directory mode: also write DIR/<name> variance;
                            turns on compute_variance
   --max-image-pixels N     refuse images of more than N pixels (default
@@ -82,6 +88,7 @@ struct Options {
   std::vector<std::string> overrides;
   std::string confidence, variance;                         // single pair
   std::string left_dir, right_dir, out_dir, confidence_dir, variance_dir;  // directory mode
+  bool confidence_tiff = false, confidence_format_given = false;  // --confidence-format
   std::size_t max_image_pixels = kDefaultMaxImagePixels;
   bool dir_mode() const { return !left_dir.empty() || !right_dir.empty() || !out_dir.empty(); }
 };
@@ -93,19 +100,6 @@ struct Outputs {
 
 uint16_t toU16(double v) {
   return static_cast<uint16_t>(std::clamp(std::lround(v), 0L, 65535L));
-}
-
-cv::Mat encodeConfidence(const MatchResult& r) {
-  cv::Mat out(r.confidence.size(), CV_16UC1);
-  for (int y = 0; y < out.rows; ++y) {
-    const float* c = r.confidence.ptr<float>(y);
-    const float* d = r.disparity.ptr<float>(y);
-    uint16_t* o = out.ptr<uint16_t>(y);
-    for (int x = 0; x < out.cols; ++x) {
-      o[x] = d[x] >= 0.f && std::isfinite(c[x]) ? toU16(static_cast<double>(c[x]) * 65535.0) : 0;
-    }
-  }
-  return out;
 }
 
 cv::Mat encodeVariance(const MatchResult& r) {
@@ -166,7 +160,11 @@ class PairRunner {
       throw std::runtime_error(left_path + ", " + right_path + ": " + e.what());
     }
     writeDisparityPng(out.disparity, result_.disparity);
-    if (!out.confidence.empty()) writeImage(out.confidence, encodeConfidence(result_));
+    if (hasTiffExtension(out.confidence)) {
+      writeConfidenceTiff(out.confidence, result_.disparity, result_.confidence);
+    } else if (!out.confidence.empty()) {
+      writeConfidencePng(out.confidence, result_.disparity, result_.confidence);
+    }
     if (!out.variance.empty()) writeImage(out.variance, encodeVariance(result_));
     if (frame_density) *frame_density = density(result_.disparity, left);
     return ms;
@@ -241,6 +239,11 @@ Options parseArgs(int argc, char** argv, bool* help) {
       o.confidence_dir = value();
     } else if (a == "--variance-dir") {
       o.variance_dir = value();
+    } else if (a == "--confidence-format") {
+      const std::string f = value();
+      if (f != "png" && f != "tiff") throw UsageError("--confidence-format is png or tiff, got '" + f + "'");
+      o.confidence_tiff = f == "tiff";
+      o.confidence_format_given = true;
     } else if (a == "--max-image-pixels") {
       o.max_image_pixels = parseMaxImagePixels(value());
     } else if (a.size() > 1 && a[0] == '-') {
@@ -260,6 +263,9 @@ Options parseArgs(int argc, char** argv, bool* help) {
     if (!o.confidence.empty() || !o.variance.empty()) {
       throw UsageError("in directory mode use --confidence-dir / --variance-dir");
     }
+    if (o.confidence_format_given && o.confidence_dir.empty()) {
+      throw UsageError("--confidence-format needs --confidence-dir");
+    }
   } else {
     if (o.positional.size() != 3) {
       throw UsageError("expected LEFT RIGHT OUT.png, got " + std::to_string(o.positional.size()) +
@@ -267,6 +273,9 @@ Options parseArgs(int argc, char** argv, bool* help) {
     }
     if (!o.confidence_dir.empty() || !o.variance_dir.empty()) {
       throw UsageError("--confidence-dir / --variance-dir need directory mode (--left-dir ...)");
+    }
+    if (o.confidence_format_given) {
+      throw UsageError("--confidence-format is for directory mode; for one pair name the file C.png or C.tiff");
     }
   }
   return o;
@@ -284,7 +293,7 @@ int runSingle(const Options& o, const MatcherParams& params) {
   const std::string &left = o.positional[0], &right = o.positional[1];
   const Outputs out{o.positional[2], o.confidence, o.variance};
   requirePng("OUT", out.disparity);
-  requirePng("--confidence", out.confidence);
+  if (!hasTiffExtension(out.confidence)) requirePng("--confidence", out.confidence);
   requirePng("--variance", out.variance);
   requireDistinctOutputs({{"LEFT", left}, {"RIGHT", right}},
                          {{"OUT", out.disparity}, {"--confidence", out.confidence},
@@ -322,9 +331,11 @@ int runDirectory(const Options& o, const MatcherParams& params) {
     const std::string& name = names[i];
     const std::string out_name =
         hasPngExtension(name) ? name : fs::path(name).stem().string() + ".png";
-    auto outPath = [&](const std::string& dir) {
-      return dir.empty() ? std::string() : (fs::path(dir) / out_name).string();
+    auto outPath = [&](const std::string& dir, const std::string& file) {
+      return dir.empty() ? std::string() : (fs::path(dir) / file).string();
     };
+    const std::string confidence_name =
+        o.confidence_tiff ? fs::path(out_name).stem().string() + ".tiff" : out_name;
     try {
       if (!written.insert(out_name).second) {
         throw std::runtime_error("output " + out_name + " was already written for another input");
@@ -332,8 +343,8 @@ int runDirectory(const Options& o, const MatcherParams& params) {
       double frame_density = 0;
       const double ms = runner.run((fs::path(o.left_dir) / name).string(),
                                    (fs::path(o.right_dir) / name).string(),
-                                   {outPath(o.out_dir), outPath(o.confidence_dir),
-                                    outPath(o.variance_dir)},
+                                   {outPath(o.out_dir, out_name), outPath(o.confidence_dir, confidence_name),
+                                    outPath(o.variance_dir, out_name)},
                                    /*warm_up=*/!warmed_up, &frame_density);
       warmed_up = true;
       times.push_back(ms);

@@ -179,11 +179,20 @@ void ensureWritableDir(const std::string& dir) {
   }
 }
 
-bool hasPngExtension(const std::string& path) {
+namespace {
+std::string lowerExtension(const std::string& path) {
   std::string ext = fs::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return ext == ".png";
+  return ext;
+}
+}  // namespace
+
+bool hasPngExtension(const std::string& path) { return lowerExtension(path) == ".png"; }
+
+bool hasTiffExtension(const std::string& path) {
+  const std::string ext = lowerExtension(path);
+  return ext == ".tif" || ext == ".tiff";
 }
 
 ProgressBar::ProgressBar(size_t total, std::string label) : total_(total), label_(std::move(label)) {

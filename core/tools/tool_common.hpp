@@ -76,6 +76,8 @@ void ensureWritableDir(const std::string& dir);
 
 /// True when `path` ends in ".png" (any case).
 bool hasPngExtension(const std::string& path);
+/// Whether `path` ends in .tif or .tiff (any case).
+bool hasTiffExtension(const std::string& path);
 
 /// A one-line progress bar on stderr, redrawn in place.
 class ProgressBar {

@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "bdis_stereo/evaluation.hpp"
+#include "bdis_stereo/synthetic_scene.hpp"
 #include "image_headers.hpp"
 #include "tool_runner.hpp"
 
@@ -147,6 +148,32 @@ TEST_F(BdisEvalTest, RegionsAndConfidenceOfPredictions) {
   ASSERT_TRUE(std::regex_search(json, m, std::regex("\"bad2_top50\": ([0-9.e-]+)")));
   EXPECT_EQ(std::stod(m[1]), 0.0);
   EXPECT_NE(r.out.find("sparsification"), std::string::npos) << r.out;
+}
+
+TEST_F(BdisEvalTest, DumpedOutputsScoreAsTheRunThatWroteThem) {
+  // A dim generated tube: a quarter of its estimates have a confidence below
+  // a 16-bit step, so only exact confidence files keep their ranking.
+  bdis::synth::SceneConfig cfg = bdis::synth::SceneConfig::variant("dark_tube");
+  cfg.width = 320;
+  cfg.height = 240;
+  cfg.frames = 2;
+  bdis::synth::writeSequence(cfg, path("tube"));
+  const RunResult dumped = run({path("tube"), "--methods", "bdis", "--dump-dir", path("dump"), "--json", path("a.json")});
+  ASSERT_EQ(dumped.code(), 0) << dumped.err;
+  ASSERT_TRUE(fs::exists(path("dump/tube/bdis/conf_000001.tiff")));
+  const RunResult rescored = run({path("tube"), "--predictions", path("dump/tube/bdis"), "--json", path("b.json")});
+  ASSERT_EQ(rescored.code(), 0) << rescored.err;
+  auto number = [](const std::string& json, const std::string& key) {
+    std::smatch m;
+    return std::regex_search(json, m, std::regex("\"" + key + "\": ([0-9.eE+-]+)")) ? std::stod(m[1]) : -1.0;
+  };
+  const std::string in_run = readFile(path("a.json")), from_files = readFile(path("b.json"));
+  const double ratio = number(in_run, "ratio");
+  ASSERT_GT(ratio, 1.0) << in_run;
+  // The disparity PNG's 1/256 px steps move a few estimates across 2 px; no more.
+  EXPECT_NEAR(number(from_files, "ratio"), ratio, 0.02 * ratio) << from_files;
+  EXPECT_NEAR(number(from_files, "bad2_top50"), number(in_run, "bad2_top50"), 0.002) << from_files;
+  EXPECT_NE(from_files.find("\"monotone\": true"), std::string::npos) << from_files;
 }
 
 TEST_F(BdisEvalTest, SequenceWithoutGroundTruthReportsBorderStrips) {

@@ -176,6 +176,49 @@ TEST_F(BdisMatchTest, DirectoryMode) {
   EXPECT_EQ(m[3].str(), O);
 }
 
+TEST_F(BdisMatchTest, ConfidenceAsFloatTiff) {
+  // The exact confidence: a float TIFF, 0 exactly where the disparity has no
+  // estimate, in both modes; the PNG of the same run within its 16-bit step.
+  writePair(path("l.png"), path("r.png"));
+  const RunResult single = run({path("l.png"), path("r.png"), path("d.png"), "--confidence", path("c.tiff")});
+  ASSERT_EQ(single.code(), 0) << single.err;
+  const cv::Mat d = bdis::readDisparityPng(path("d.png"));
+  const cv::Mat c = cv::imread(path("c.tiff"), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(c.type(), CV_32FC1);
+  ASSERT_EQ(c.size(), d.size());
+  int mismatches = 0;
+  for (int y = 0; y < d.rows; ++y) {
+    for (int x = 0; x < d.cols; ++x) {
+      const float v = c.at<float>(y, x);
+      mismatches += d.at<float>(y, x) >= 0.f ? !(v > 0.f && v <= 1.f) : v != 0.f;
+    }
+  }
+  EXPECT_EQ(mismatches, 0);
+  EXPECT_GT(cv::countNonZero(c), static_cast<int>(c.total() / 2));
+
+  const std::string L = path("left"), R = path("right");
+  fs::create_directories(L);
+  fs::create_directories(R);
+  writePair(L + "/000000.png", R + "/000000.png");
+  const RunResult dir = run({"--left-dir", L, "--right-dir", R, "--out-dir", path("out"), "--confidence-dir",
+                             path("conf"), "--confidence-format", "tiff"});
+  ASSERT_EQ(dir.code(), 0) << dir.err;
+  const cv::Mat from_dir = cv::imread(path("conf/000000.tiff"), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(from_dir.type(), CV_32FC1);
+  EXPECT_EQ(cv::norm(from_dir, c, cv::NORM_INF), 0.0);  // the same pair, the same confidence
+  ASSERT_EQ(run({path("l.png"), path("r.png"), path("d2.png"), "--confidence", path("c.png")}).code(), 0);
+  cv::Mat png;
+  cv::imread(path("c.png"), cv::IMREAD_UNCHANGED).convertTo(png, CV_32FC1, 1.0 / 65535);
+  EXPECT_LE(cv::norm(png, c, cv::NORM_INF), 1.0 / 65535 + 1e-7);  // rounded, estimates at least 1
+
+  expectFailure(run({"--left-dir", L, "--right-dir", R, "--out-dir", path("out"), "--confidence-dir", path("conf"),
+                     "--confidence-format", "exr"}),
+                "png or tiff");
+  expectFailure(run({"--left-dir", L, "--right-dir", R, "--out-dir", path("out"), "--confidence-format", "tiff"}),
+                "needs --confidence-dir");
+  expectFailure(run({path("l.png"), path("r.png"), path("d.png"), "--confidence-format", "tiff"}), "C.tiff");
+}
+
 TEST_F(BdisMatchTest, DirectoryModeSkipsFailedFrame) {
   const std::string L = path("left"), R = path("right"), O = path("out");
   fs::create_directories(L);
