@@ -293,7 +293,10 @@ int runSingle(const Options& o, const MatcherParams& params) {
   const std::string &left = o.positional[0], &right = o.positional[1];
   const Outputs out{o.positional[2], o.confidence, o.variance};
   requirePng("OUT", out.disparity);
-  if (!hasTiffExtension(out.confidence)) requirePng("--confidence", out.confidence);
+  if (!out.confidence.empty() && !hasPngExtension(out.confidence) && !hasTiffExtension(out.confidence)) {
+    throw UsageError("--confidence must be a .png (16-bit) or .tiff (32-bit float) file, got '" + out.confidence +
+                     "'");
+  }
   requirePng("--variance", out.variance);
   requireDistinctOutputs({{"LEFT", left}, {"RIGHT", right}},
                          {{"OUT", out.disparity}, {"--confidence", out.confidence},

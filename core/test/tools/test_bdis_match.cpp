@@ -217,6 +217,7 @@ TEST_F(BdisMatchTest, ConfidenceAsFloatTiff) {
   expectFailure(run({"--left-dir", L, "--right-dir", R, "--out-dir", path("out"), "--confidence-format", "tiff"}),
                 "needs --confidence-dir");
   expectFailure(run({path("l.png"), path("r.png"), path("d.png"), "--confidence-format", "tiff"}), "C.tiff");
+  expectFailure(run({path("l.png"), path("r.png"), path("d.png"), "--confidence", path("c.jpg")}), ".png (16-bit) or .tiff");
 }
 
 TEST_F(BdisMatchTest, DirectoryModeSkipsFailedFrame) {
