@@ -63,7 +63,8 @@ options:
                        sequence only; frames without a file are skipped for every method;
                        other methods run only when --methods names them; a confidence
                        DIR/conf_<stem>.tiff (32-bit float; what --dump-dir writes) or
-                       DIR/conf_<frame>.png (16-bit, c*65535) is scored with it
+                       DIR/conf_<frame>.png (16-bit, c*65535) is scored with it (for every
+                       frame or none)
   --max-image-pixels N refuse images (left, right, ground truth, predictions) of
                        more than N pixels (default 16777216 = 4096x4096, as the
                        nodelet's max_image_pixels); read from the file's header
@@ -141,8 +142,12 @@ Method makeSgbm() {
 Method makePredictions(const std::string& dir, const std::string* const* current_name,
                        std::size_t max_image_pixels) {
   auto confidence = std::make_shared<cv::Mat>();
+  // Every scored frame has a confidence file or none does: frames without
+  // one would enter the ranking as the least confident.
+  auto first_had_confidence = std::make_shared<int>(-1);
   return {"predictions",
-          [dir, current_name, confidence, max_image_pixels](const cv::Mat&, const cv::Mat&, cv::Mat& d) {
+          [dir, current_name, confidence, first_had_confidence, max_image_pixels](const cv::Mat&, const cv::Mat&,
+                                                                                 cv::Mat& d) {
             const std::filesystem::path root(dir);
             const std::string prediction = (root / **current_name).string();
             checkImagePixels(prediction, max_image_pixels);
@@ -150,7 +155,14 @@ Method makePredictions(const std::string& dir, const std::string* const* current
             confidence->release();
             std::filesystem::path conf = root / ("conf_" + std::filesystem::path(**current_name).stem().string() + ".tiff");
             if (!std::filesystem::exists(conf)) conf = root / ("conf_" + **current_name);
-            if (!std::filesystem::exists(conf)) return;
+            const int has = std::filesystem::exists(conf) ? 1 : 0;
+            if (*first_had_confidence < 0) *first_had_confidence = has;
+            if (has != *first_had_confidence) {
+              throw std::runtime_error("--predictions: " + **current_name + (has ? " has" : " has no") +
+                                       " confidence file, the first frame " + (has ? "had none" : "had one") +
+                                       ": give every frame a conf_ file or none");
+            }
+            if (!has) return;
             checkImagePixels(conf.string(), max_image_pixels);
             *confidence = readConfidence(conf.string());
             if (confidence->size() != d.size()) {

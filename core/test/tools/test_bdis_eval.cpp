@@ -148,6 +148,13 @@ TEST_F(BdisEvalTest, RegionsAndConfidenceOfPredictions) {
   ASSERT_TRUE(std::regex_search(json, m, std::regex("\"bad2_top50\": ([0-9.e-]+)")));
   EXPECT_EQ(std::stod(m[1]), 0.0);
   EXPECT_NE(r.out.find("sparsification"), std::string::npos) << r.out;
+
+  // A frame with a disparity but no confidence, after one with: refused, not
+  // ranked as the least confident.
+  bdis::writeDisparityPng(path("pred/000001.png"), d);
+  const RunResult partial = run({path("seq"), "--predictions", path("pred")});
+  EXPECT_EQ(partial.code(), 1);
+  EXPECT_NE(partial.err.find("000001.png has no confidence file"), std::string::npos) << partial.err;
 }
 
 TEST_F(BdisEvalTest, DumpedOutputsScoreAsTheRunThatWroteThem) {
