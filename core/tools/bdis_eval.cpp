@@ -136,6 +136,12 @@ Method makeSgbm() {
           }};
 }
 
+/// The exact confidence file of frame `name` beside its disparity: what
+/// --dump-dir writes and --predictions reads first.
+std::string confidenceTiffName(const std::string& name) {
+  return "conf_" + std::filesystem::path(name).stem().string() + ".tiff";
+}
+
 // Disparities computed elsewhere, one 16-bit PNG per frame name, and their
 // confidence where a conf_<stem>.tiff (32-bit float) or conf_<frame>.png
 // (16-bit, c * 65535) is there too.
@@ -153,7 +159,7 @@ Method makePredictions(const std::string& dir, const std::string* const* current
             checkImagePixels(prediction, max_image_pixels);
             d = readDisparityPng(prediction);
             confidence->release();
-            std::filesystem::path conf = root / ("conf_" + std::filesystem::path(**current_name).stem().string() + ".tiff");
+            std::filesystem::path conf = root / confidenceTiffName(**current_name);
             if (!std::filesystem::exists(conf)) conf = root / ("conf_" + **current_name);
             const int has = std::filesystem::exists(conf) ? 1 : 0;
             if (*first_had_confidence < 0) *first_had_confidence = has;
@@ -272,8 +278,7 @@ void dumpMaps(const std::filesystem::path& dir, const std::string& name, const c
   if (confidence.empty()) return;
   // Exact: a 16-bit PNG ties the least confident estimates, and scoring those
   // files would rank them worse than this run does.
-  writeConfidenceTiff((dir / ("conf_" + std::filesystem::path(name).stem().string() + ".tiff")).string(), disparity,
-                      confidence);
+  writeConfidenceTiff((dir / confidenceTiffName(name)).string(), disparity, confidence);
 }
 
 /// Every method on the frames of one sequence; one row per method.
