@@ -47,15 +47,16 @@ void boxRow(int w, int side, const float* padded, float* out) {
   }
 }
 
-/// Per column, the sum of the estimates of rows a and b and their count (b
+/// Per column, the sum of the values at the estimates of rows a and b (the
+/// estimates themselves or another map's values there) and their count (b
 /// may be a again, with weight 0: the last block row of an odd height).
 BDIS_ROW_LOOP
-void pairOfRows(int w, const float* __restrict a, const float* __restrict b, float b_weight, float* __restrict sum,
-                float* __restrict count) {
+void pairOfRows(int w, const float* __restrict a, const float* __restrict b, const float* __restrict value_a,
+                const float* __restrict value_b, float b_weight, float* __restrict sum, float* __restrict count) {
   for (int x = 0; x < w; ++x) {
     const float has_a = a[x] >= 0.f ? 1.f : 0.f;
     const float has_b = b[x] >= 0.f ? b_weight : 0.f;
-    sum[x] = has_a * a[x] + has_b * b[x];
+    sum[x] = has_a * value_a[x] + has_b * value_b[x];
     count[x] = has_a + has_b;
   }
 }
@@ -63,13 +64,19 @@ void pairOfRows(int w, const float* __restrict a, const float* __restrict b, flo
 }  // namespace
 
 void BlockEstimates::row(const cv::Mat1f& disparity, int by, int bw, float* sum, float* count) {
+  row(disparity, disparity, by, bw, sum, count);
+}
+
+void BlockEstimates::row(const cv::Mat1f& disparity, const cv::Mat1f& values, int by, int bw, float* sum,
+                         float* count) {
   const int w = disparity.cols, h = disparity.rows;
-  CV_Assert(bw <= (w + 1) / 2 && 2 * by < h);
+  CV_Assert(bw <= (w + 1) / 2 && 2 * by < h && values.size() == disparity.size());
   pair_sum_.resize(static_cast<size_t>(bw) * 2);
   pair_count_.resize(static_cast<size_t>(bw) * 2);
   const int y1 = std::min(2 * by + 1, h - 1);
   const int columns = std::min(w, 2 * bw);
-  pairOfRows(columns, disparity[2 * by], disparity[y1], y1 > 2 * by ? 1.f : 0.f, pair_sum_.data(), pair_count_.data());
+  pairOfRows(columns, disparity[2 * by], disparity[y1], values[2 * by], values[y1], y1 > 2 * by ? 1.f : 0.f,
+             pair_sum_.data(), pair_count_.data());
   if (2 * bw > w) pair_sum_[w] = pair_count_[w] = 0.f;  // an odd width's last block has one column
   for (int bx = 0; bx < bw; ++bx) {
     sum[bx] = pair_sum_[2 * bx] + pair_sum_[2 * bx + 1];
@@ -115,6 +122,12 @@ void blocksToPixels(int w, const float* __restrict blocks, float* __restrict pix
     pixels[2 * bx + 1] = blocks[bx];
   }
   if (w % 2 != 0) pixels[w - 1] = blocks[pairs];
+}
+
+BDIS_ROW_LOOP
+void multiplyAtEstimatesRow(int w, const float* __restrict factor, const float* __restrict disparity,
+                            float* __restrict confidence) {
+  for (int x = 0; x < w; ++x) confidence[x] = disparity[x] >= 0.f ? confidence[x] * factor[x] : confidence[x];
 }
 
 void BoxSums::begin(int w, int h, int r, bool with_b) {

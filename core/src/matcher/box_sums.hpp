@@ -3,6 +3,7 @@
 // loops that vectorise, with buffers kept for the next frame of the same size.
 #pragma once
 
+#include <algorithm>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -45,6 +46,14 @@ void boxSumsAlongLine(int n, int half, const float* values, std::vector<float>& 
 /// gets block x / 2 (`blocks` holds at least (w + 1) / 2 values).
 void blocksToPixels(int w, const float* blocks, float* pixels);
 
+/// confidence[x] *= factor[x] where disparity[x] is an estimate (>= 0).
+void multiplyAtEstimatesRow(int w, const float* factor, const float* disparity, float* confidence);
+
+/// Half a patch side in 2 x 2 blocks, `patch_px` / 4 rounded half up (at
+/// least 1): the radius of the patch-sized boxes of blocks (slant_cue.hpp,
+/// neighbourhood_cue.hpp), 2 at the default patch side 8.
+inline int halfPatchInBlocks(int patch_px) { return std::max(1, (patch_px / 2 + 1) / 2); }
+
 /// The estimates (>= 0; none below) of a finest-level disparity map taken
 /// in 2 x 2 blocks, one block row at a time: per block, their sum and their
 /// count; the last block row and column are clipped to the map. For the cues
@@ -54,6 +63,8 @@ class BlockEstimates {
  public:
   /// Blocks 0..bw-1 (bw <= (w + 1) / 2) of block row `by` into sum and count.
   void row(const cv::Mat1f& disparity, int by, int bw, float* sum, float* count);
+  /// The same with the sum of another map's `values` at the estimates.
+  void row(const cv::Mat1f& disparity, const cv::Mat1f& values, int by, int bw, float* sum, float* count);
 
  private:
   std::vector<float> pair_sum_, pair_count_;  ///< the two rows' sums, per column

@@ -21,13 +21,16 @@ class NeighbourhoodCue {
  public:
   /// Replaces the confidence c of each estimate of `disparity` (level px;
   /// kNoDisparity where none) by c^(3/4) m^(1/4), m the mean confidence of
-  /// the estimates in the box of side 2 (`patch_px` / 2) + 1 around it (the
+  /// the estimates in the slant cue's box around it (2 rb + 1 blocks of 2 x 2
+  /// px a side around its block, rb = `patch_px` / 4 rounded half up; the
   /// estimate among them). Pixels without an estimate keep theirs. Buffers
   /// are kept for the next frame of the same size.
   void apply(const cv::Mat1f& disparity, int patch_px, cv::Mat1f& confidence);
 
  private:
-  BoxSums sums_;  ///< of the estimates' confidence and of their count
+  BlockEstimates blocks_;  ///< the estimates' confidence and count per 2 x 2 block
+  BoxSums sums_;           ///< of those, over boxes of blocks
+  std::vector<float> block_mean_, mean_;  ///< one row's
 };
 
 }  // namespace detail

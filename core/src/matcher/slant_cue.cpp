@@ -2,22 +2,13 @@
 
 #include <algorithm>
 
+#include "bdis_stereo/matcher.hpp"  // kNoDisparity
 #include "confidence.hpp"
 #include "patch_kernels.hpp"        // BDIS_ROW_LOOP
 
 namespace bdis {
 namespace detail {
 namespace {
-
-BDIS_ROW_LOOP
-void squaredRow(int w, const float* __restrict values, float* __restrict squares) {
-  for (int x = 0; x < w; ++x) squares[x] = values[x] * values[x];
-}
-
-/// How many of the indices i - r .. i + r lie in 0 .. n-1.
-inline float clippedSpan(int i, int n, int r) {
-  return static_cast<float>(std::min(i + r, n - 1) - std::max(i - r, 0) + 1);
-}
 
 /// The bend of the box means around the centre, r to each side: their
 /// discrete Laplacian (px of disparity), 0 unless all four neighbours exist.
@@ -26,26 +17,40 @@ inline float bend(float left, float right, float above, float below, float centr
   return all ? left + right + above + below - 4.f * centre : 0.f;
 }
 
-/// `mean`, `above` and `below` point at column 0 of padded mean rows (r
-/// columns of kNoDisparity before and after).
+/// The squared gradient of two rows (g1 may be g0 again, with weight 0: the
+/// last block row of an odd height) summed per 2 x 2 block: columns w of
+/// the rows, bw blocks (an odd width's last block has one column).
+void blockSquaresRow(int w, int bw, const float* g0, const float* g1, float g1_weight, std::vector<float>& pairs,
+                     float* blocks) {
+  pairs.resize(static_cast<size_t>(2 * bw));
+  for (int x = 0; x < w; ++x) pairs[static_cast<size_t>(x)] = g0[x] * g0[x] + g1_weight * g1[x] * g1[x];
+  if (2 * bw > w) pairs[static_cast<size_t>(w)] = 0.f;
+  for (int bx = 0; bx < bw; ++bx) blocks[bx] = pairs[2 * static_cast<size_t>(bx)] + pairs[2 * static_cast<size_t>(bx) + 1];
+}
+
+/// The pixels a box of blocks b - rb .. b + rb covers, clipped to n pixels.
+inline float clippedPixels(int b, int n, int rb) {
+  return static_cast<float>(std::min(2 * (b + rb) + 1, n - 1) - 2 * std::max(b - rb, 0) + 1);
+}
+
+/// Per block, the factor of the three agreements. `mean`, `above` and
+/// `below` point at block 0 of padded block-mean rows (rb blocks of
+/// kNoDisparity before and after); the slope is per level px.
 BDIS_ROW_LOOP
-void slantRow(int w, int r, const float* __restrict above, const float* __restrict mean,
-              const float* __restrict below, const float* __restrict disparity, float inv_halving_sq,
-              const float* __restrict gradient_sq_sum, const float* __restrict inv_box_columns,
-              float inv_box_rows, float inv_misfit_halving_sq, float inv_bend_halving_sq,
-              float* __restrict confidence) {
-  const float inv_step = 1.f / static_cast<float>(r);
-  for (int x = 0; x < w; ++x) {
-    const float gx = slopeAcross(mean[x - r], mean[x], mean[x + r], inv_step);
+void slantFactorRow(int bw, int rb, const float* __restrict above, const float* __restrict mean,
+                    const float* __restrict below, float inv_halving_sq, const float* __restrict gradient_sq_sum,
+                    const float* __restrict inv_box_columns, float inv_box_rows, float inv_misfit_halving_sq,
+                    float inv_bend_halving_sq, float* __restrict factor) {
+  const float inv_step = 1.f / static_cast<float>(2 * rb);
+  for (int x = 0; x < bw; ++x) {
+    const float gx = slopeAcross(mean[x - rb], mean[x], mean[x + rb], inv_step);
     const float gy = slopeAcross(above[x], mean[x], below[x], inv_step);
     const float slope_sq = gx * gx + gy * gy;
     const float gradient_sq = gradient_sq_sum[x] * (inv_box_columns[x] * inv_box_rows);
-    const float b = bend(mean[x - r], mean[x + r], above[x], below[x], mean[x]);
+    const float b = bend(mean[x - rb], mean[x + rb], above[x], below[x], mean[x]);
     // The three agreements' product over one division: agreement(s, k) = 1 / (1 + s k).
-    const float c = confidence[x] / ((1.f + slope_sq * inv_halving_sq) *
-                                     (1.f + slope_sq * gradient_sq * inv_misfit_halving_sq) *
-                                     (1.f + b * b * inv_bend_halving_sq));
-    confidence[x] = disparity[x] >= 0.f ? c : confidence[x];
+    factor[x] = 1.f / ((1.f + slope_sq * inv_halving_sq) * (1.f + slope_sq * gradient_sq * inv_misfit_halving_sq) *
+                       (1.f + b * b * inv_bend_halving_sq));
   }
 }
 
@@ -54,14 +59,25 @@ void slantRow(int w, int r, const float* __restrict above, const float* __restri
 void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int patch_px, float halving,
                      float misfit_halving, float bend_halving, cv::Mat1f& confidence) {
   const int w = disparity.cols, h = disparity.rows;
-  const int r = std::max(1, patch_px / 2);
-  boxMeansOfEstimates(disparity, r, sums_, mean_);
+  const int bw = (w + 1) / 2, bh = (h + 1) / 2;  // 2 x 2 blocks
+  // The box about a patch side, the slope's step half of one.
+  const int rb = halfPatchInBlocks(patch_px);
+  mean_.create(bh + 1, bw + 2 * rb);
+  for (int by = 0; by < bh; ++by) {
+    std::fill(mean_[by], mean_[by] + rb, kNoDisparity);
+    std::fill(mean_[by] + rb + bw, mean_[by] + bw + 2 * rb, kNoDisparity);
+  }
+  std::fill(mean_[bh], mean_[bh] + bw + 2 * rb, kNoDisparity);
+  sums_.begin(bw, bh, rb);
+  sums_.sweep([&](int by, float* sum, float* count) { blocks_.row(disparity, by, bw, sum, count); },
+              [&](int by, const float* sum, const float* count) { boxMeanRow(bw, sum, count, mean_[by] + rb); });
 
-  // The box sums of the squared gradient, over the clipped box's area
-  // clippedSpan(x) * clippedSpan(y): its columns' and rows' reciprocals.
-  gradient_sums_.begin(w, h, r, /*with_b=*/false);
-  inv_box_columns_.resize(static_cast<size_t>(w));
-  for (int x = 0; x < w; ++x) inv_box_columns_[static_cast<size_t>(x)] = 1.f / clippedSpan(x, w, r);
+  // The box sums of the squared gradient, over the clipped box's pixels.
+  gradient_sums_.begin(bw, bh, rb, /*with_b=*/false);
+  inv_box_columns_.resize(static_cast<size_t>(bw));
+  for (int bx = 0; bx < bw; ++bx) inv_box_columns_[static_cast<size_t>(bx)] = 1.f / clippedPixels(bx, w, rb);
+  factor_.resize(static_cast<size_t>(bw));
+  pixel_factor_.resize(static_cast<size_t>(w));
 
   // agreement(|grad D| * patch_px, halving) = agreement(|grad D|, halving / patch_px),
   // and likewise for the misfit |grad D| * patch_px * g.
@@ -70,15 +86,22 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
   const float slope_gradient_halving = misfit_halving / static_cast<float>(patch_px);
   const float inv_misfit_halving_sq = 1.f / (slope_gradient_halving * slope_gradient_halving);
   const float inv_bend_halving_sq = 1.f / (bend_halving * bend_halving);
-  const float* none = mean_[h] + r;
-  gradient_sums_.sweep([&](int y, float* gradient_sq, float*) { squaredRow(w, gradient[y], gradient_sq); },
-                       [&](int y, const float* gradient_sq_sum, const float*) {
-                         slantRow(w, r, y >= r ? mean_[y - r] + r : none, mean_[y] + r,
-                                  y + r < h ? mean_[y + r] + r : none, disparity[y], inv_halving_sq,
-                                  gradient_sq_sum, inv_box_columns_.data(), 1.f / clippedSpan(y, h, r),
-                                  inv_misfit_halving_sq,
-                                  inv_bend_halving_sq, confidence[y]);
-                       });
+  const float* none = mean_[bh] + rb;
+  gradient_sums_.sweep(
+      [&](int by, float* gradient_sq, float*) {
+        const int y1 = std::min(2 * by + 1, h - 1);
+        blockSquaresRow(w, bw, gradient[2 * by], gradient[y1], y1 > 2 * by ? 1.f : 0.f, pairs_, gradient_sq);
+      },
+      [&](int by, const float* gradient_sq_sum, const float*) {
+        slantFactorRow(bw, rb, by >= rb ? mean_[by - rb] + rb : none, mean_[by] + rb,
+                       by + rb < bh ? mean_[by + rb] + rb : none, inv_halving_sq, gradient_sq_sum,
+                       inv_box_columns_.data(), 1.f / clippedPixels(by, h, rb), inv_misfit_halving_sq,
+                       inv_bend_halving_sq, factor_.data());
+        blocksToPixels(w, factor_.data(), pixel_factor_.data());
+        for (int y = 2 * by; y < std::min(2 * by + 2, h); ++y) {
+          multiplyAtEstimatesRow(w, pixel_factor_.data(), disparity[y], confidence[y]);
+        }
+      });
 }
 
 }  // namespace detail

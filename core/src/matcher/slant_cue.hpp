@@ -28,28 +28,33 @@ class SlantCue {
  public:
   /// Multiplies the confidence of each estimate of `disparity` (level px;
   /// kNoDisparity where none) by agreement() of the disparity change across
-  /// a patch, |grad D| * `patch_px`, with `halving` (level px). grad D is
-  /// the central difference, `patch_px` / 2 to each side, of the mean of the
-  /// estimates in a box of side `patch_px` + 1 around each pixel (one-sided
-  /// where one side's box holds no estimate, 0 along an axis where neither
-  /// does). Then by agreement() of the misfit, |grad D| * `patch_px` * g,
-  /// with `misfit_halving` (grey levels), g the RMS of `gradient` (the left
-  /// image's horizontal gradient, grey levels per level px) over the same
-  /// box. Then by agreement() of the bend, the discrete Laplacian of those
-  /// box means at the same step (B(x - r) + B(x + r) + B(y - r) + B(y + r)
-  /// - 4 B, r = `patch_px` / 2; 0 unless all four exist), with
-  /// `bend_halving` (level px). Buffers are kept for the next frame of the
-  /// same size; the box sums are separable, in row loops that vectorise.
+  /// a patch, |grad D| * `patch_px`, with `halving` (level px). The map is
+  /// taken in 2 x 2 blocks, and a block's four pixels share its factor: the
+  /// cue describes the surface on a patch's scale, not the pixel. grad D is
+  /// the central difference, rb blocks (2 rb px) to each side, of the mean
+  /// of the estimates in a box of 2 rb + 1 blocks around the block, rb =
+  /// `patch_px` / 4 rounded half up (one-sided where one side's box holds no
+  /// estimate, 0 along an axis where neither does). Then by agreement() of
+  /// the misfit, |grad D| * `patch_px` * g, with `misfit_halving` (grey
+  /// levels), g the RMS of `gradient` (the left image's horizontal gradient,
+  /// grey levels per level px) over the same box. Then by agreement() of the
+  /// bend, the discrete Laplacian of those box means at the same step (B(x -
+  /// r) + B(x + r) + B(y - r) + B(y + r) - 4 B, r = rb blocks; 0 unless all
+  /// four exist), with `bend_halving` (level px). Buffers are kept for the
+  /// next frame of the same size; the box sums are separable, in row loops
+  /// that vectorise.
   void apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int patch_px, float halving,
              float misfit_halving, float bend_halving, cv::Mat1f& confidence);
 
  private:
-  BoxSums sums_;           ///< of the estimates and of their count
-  BoxSums gradient_sums_;            ///< of the squared gradient
-  std::vector<float> inv_box_columns_;  ///< 1 / columns of each column's box, clipped to the map
-  /// Box mean of the estimates, kNoDisparity where the box has none; r
-  /// columns of kNoDisparity each side, and one all-kNoDisparity row last
-  /// (stands in for the rows above the first and below the last).
+  BlockEstimates blocks_;  ///< the estimates' sum and count per 2 x 2 block
+  BoxSums sums_;           ///< of those, over boxes of blocks
+  BoxSums gradient_sums_;  ///< of the squared gradient, per block, over the same boxes
+  std::vector<float> inv_box_columns_;  ///< 1 / pixel columns of each block column's box, clipped to the map
+  std::vector<float> pairs_, factor_, pixel_factor_;  ///< one row's scratch
+  /// Box mean of the estimates per block, kNoDisparity where the box has
+  /// none; rb blocks of kNoDisparity each side, and one all-kNoDisparity row
+  /// last (stands in for the rows above the first and below the last).
   cv::Mat1f mean_;
 };
 

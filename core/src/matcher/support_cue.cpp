@@ -26,15 +26,36 @@ void indicatorRows(int w, const float* __restrict disparity, const uchar* __rest
   }
 }
 
+/// Per block, the factor agreement(missing share) of its box's counts.
 BDIS_ROW_LOOP
-void supportRow(int w, const float* __restrict estimates, const float* __restrict valid,
-                const float* __restrict disparity, float inv_halving_sq, float* __restrict confidence) {
-  for (int x = 0; x < w; ++x) {
+void supportFactorRow(int bw, const float* __restrict estimates, const float* __restrict valid, float inv_halving_sq,
+                      float* __restrict factor) {
+  for (int x = 0; x < bw; ++x) {
     // agreement(missing share^2), the share (v - e) / v multiplied out: one division, not two.
     const float v = std::max(valid[x], 1.f);
     const float missing = std::max(0.f, v - estimates[x]);
-    const float c = confidence[x] * (v * v) / (v * v + missing * missing * inv_halving_sq);
-    confidence[x] = disparity[x] >= 0.f ? c : confidence[x];
+    factor[x] = (v * v) / (v * v + missing * missing * inv_halving_sq);
+  }
+}
+
+/// Per 2 x 2 block of the two rows (the second one's weight 0 for the last
+/// block row of an odd height), the count of its estimates and of its
+/// countable pixels; bw blocks (an odd width's last block has one column).
+void blockIndicatorRow(int w, int bw, const float* d0, const uchar* v0, const float* g0, const float* d1,
+                       const uchar* v1, const float* g1, float second_weight, std::vector<float>& scratch,
+                       float* estimates, float* valid_pixels) {
+  scratch.resize(static_cast<size_t>(8 * bw));
+  float* e0 = scratch.data();
+  float* p0 = e0 + 2 * bw;
+  float* e1 = p0 + 2 * bw;
+  float* p1 = e1 + 2 * bw;
+  indicatorRows(w, d0, v0, g0, e0, p0);
+  indicatorRows(w, d1, v1, g1, e1, p1);
+  if (2 * bw > w) e0[w] = p0[w] = e1[w] = p1[w] = 0.f;
+  for (int bx = 0; bx < bw; ++bx) {
+    const int a = 2 * bx;
+    estimates[bx] = e0[a] + e0[a + 1] + second_weight * (e1[a] + e1[a + 1]);
+    valid_pixels[bx] = p0[a] + p0[a + 1] + second_weight * (p1[a] + p1[a + 1]);
   }
 }
 
@@ -44,14 +65,24 @@ void SupportCue::apply(const cv::Mat1f& disparity, const cv::Mat1b& valid, const
                        float halving_share, cv::Mat1f& confidence) {
   CV_Assert(valid.size() == disparity.size() && confidence.size() == disparity.size());
   const int w = disparity.cols, h = disparity.rows;
-  sums_.begin(w, h, std::max(1, patch_px - 1));
+  const int bw = (w + 1) / 2, bh = (h + 1) / 2;  // 2 x 2 blocks
+  // A box of about 2 patch_px - 1 pixels: what the patches covering the pixel reach.
+  sums_.begin(bw, bh, std::max(1, (patch_px - 1) / 2));
+  factor_.resize(static_cast<size_t>(bw));
+  pixel_factor_.resize(static_cast<size_t>(w));
   const float inv_halving_sq = 1.f / (halving_share * halving_share);
   sums_.sweep(
-      [&](int y, float* estimates, float* valid_pixels) {
-        indicatorRows(w, disparity[y], valid[y], grey[y], estimates, valid_pixels);
+      [&](int by, float* estimates, float* valid_pixels) {
+        const int y1 = std::min(2 * by + 1, h - 1);
+        blockIndicatorRow(w, bw, disparity[2 * by], valid[2 * by], grey[2 * by], disparity[y1], valid[y1], grey[y1],
+                          y1 > 2 * by ? 1.f : 0.f, scratch_, estimates, valid_pixels);
       },
-      [&](int y, const float* n_estimates, const float* n_valid) {
-        supportRow(w, n_estimates, n_valid, disparity[y], inv_halving_sq, confidence[y]);
+      [&](int by, const float* n_estimates, const float* n_valid) {
+        supportFactorRow(bw, n_estimates, n_valid, inv_halving_sq, factor_.data());
+        blocksToPixels(w, factor_.data(), pixel_factor_.data());
+        for (int y = 2 * by; y < std::min(2 * by + 2, h); ++y) {
+          multiplyAtEstimatesRow(w, pixel_factor_.data(), disparity[y], confidence[y]);
+        }
       });
 }
 

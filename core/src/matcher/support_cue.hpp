@@ -10,6 +10,8 @@
 // matches around it.
 #pragma once
 
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 #include "box_sums.hpp"
@@ -21,15 +23,18 @@ class SupportCue {
  public:
   /// Multiplies the confidence of each estimate of `disparity` (level px;
   /// kNoDisparity where none) by agreement() of the share of the pixels in
-  /// the box of side 2 `patch_px` - 1 around it that have no estimate, with
-  /// `halving_share`. Counted are the valid pixels (`valid` != 0) and the
+  /// the box around it that have no estimate, with `halving_share`. The box
+  /// is made of 2 x 2 blocks, 2 floor((`patch_px` - 1) / 2) + 1 of them a
+  /// side around the pixel's (about 2 `patch_px` - 1 px); a block's four
+  /// pixels share its factor. Counted are the valid pixels (`valid` != 0) and the
   /// invalid bright ones (`grey`: clipped), not the invalid dark ones
   /// (outside the view). Buffers are kept for the next frame of the same size.
   void apply(const cv::Mat1f& disparity, const cv::Mat1b& valid, const cv::Mat1f& grey, int patch_px,
              float halving_share, cv::Mat1f& confidence);
 
  private:
-  BoxSums sums_;  ///< of the estimates' count and of the valid pixels'
+  BoxSums sums_;  ///< of the estimates' count and of the valid pixels', per 2 x 2 block
+  std::vector<float> scratch_, factor_, pixel_factor_;  ///< one row's
 };
 
 }  // namespace detail

@@ -14,15 +14,20 @@ namespace {
 using bdis::kNoDisparity;
 using bdis::detail::NeighbourhoodCue;
 
-constexpr int kPatch = 8;  // level px: a box of 9 x 9
+constexpr int kPatch = 8;  // level px: a box of 5 x 5 blocks of 2 x 2 px
+
+/// The first and last pixel of the box around pixel i: two blocks to each
+/// side of its block, clipped to n pixels.
+int boxBegin(int i) { return std::max(0, 2 * (i / 2) - 4); }
+int boxEnd(int i, int n) { return std::min(n - 1, 2 * (i / 2) + 5); }
 
 /// The cue's value at (x, y) the slow way: the mean confidence of the
-/// estimates within 4 px (the box clipped to the map), pooled 3 : 1.
+/// estimates in its box, pooled 3 : 1.
 float slowPooled(const cv::Mat1f& d, const cv::Mat1f& c, int x, int y) {
   double sum = 0.0;
   int count = 0;
-  for (int yy = std::max(0, y - 4); yy <= std::min(d.rows - 1, y + 4); ++yy) {
-    for (int xx = std::max(0, x - 4); xx <= std::min(d.cols - 1, x + 4); ++xx) {
+  for (int yy = boxBegin(y); yy <= boxEnd(y, d.rows); ++yy) {
+    for (int xx = boxBegin(x); xx <= boxEnd(x, d.cols); ++xx) {
       if (d(yy, xx) < 0.f) continue;
       sum += c(yy, xx);
       ++count;
@@ -47,7 +52,8 @@ TEST(NeighbourhoodCue, ALoneConfidentEstimateComesDownAndALoneDoubtfulOneUp) {
   NeighbourhoodCue cue;
   cue.apply(d, kPatch, c);
   cue.apply(d, kPatch, doubtful);
-  const float mean_low = (0.8f + 80.f * 0.01f) / 81.f, mean_high = (0.01f + 80.f * 0.8f) / 81.f;
+  // The box of (24, 20): columns 20 .. 29, rows 16 .. 25.
+  const float mean_low = (0.8f + 99.f * 0.01f) / 100.f, mean_high = (0.01f + 99.f * 0.8f) / 100.f;
   EXPECT_NEAR(c(20, 24), std::pow(0.8f, 0.75f) * std::pow(mean_low, 0.25f), 1e-5f);
   EXPECT_LT(c(20, 24), 0.35f);  // from 0.8
   EXPECT_NEAR(doubtful(20, 24), std::pow(0.01f, 0.75f) * std::pow(mean_high, 0.25f), 1e-5f);

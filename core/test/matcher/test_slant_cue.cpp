@@ -12,7 +12,7 @@ namespace {
 using bdis::kNoDisparity;
 using bdis::detail::SlantCue;
 
-constexpr int kPatch = 8;        // level px; the box reaches 4 px to each side
+constexpr int kPatch = 8;        // level px; the box: 5 x 5 blocks of 2 x 2 px, 4-5 px to each side
 constexpr float kHalving = 1.f;  // level px of disparity across a patch
 constexpr float kMisfitHalving = 4.f;  // grey levels
 constexpr float kBendHalving = 1.f;    // level px of bend
@@ -77,17 +77,20 @@ TEST(SlantCue, APlaneHasNoBend) {
 }
 
 TEST(SlantCue, ABentSurfaceGetsTheFactorOfItsBend) {
-  // d = 30 + a (x - 32)^2 (a trough along y) and its ridge, 30 - a (x - 32)^2:
-  // the box means (9 px wide) are the curve plus a constant, so their
-  // Laplacian 4 px to each side is 2 a 4^2 = 32 a everywhere, and at x = 32
-  // the slope is 0: the bend's factor alone.
+  // d = 30 + a (x - 32.5)^2 (a trough along y) and its ridge: the box means
+  // (of 2 x 2 blocks, 10 px wide) are the curve at the box's centre plus a
+  // constant, so their Laplacian 4 px to each side is 2 a 4^2 = 32 a
+  // everywhere, and the block of columns 32 and 33, centred at 32.5, has
+  // slope 0: the bend's factor alone.
   SlantCue cue;
   for (float a : {1.f / 64.f, 1.f / 32.f, -1.f / 32.f}) {
     cv::Mat1f d(48, 64), c(48, 64, 1.f);
-    for (int x = 0; x < 64; ++x) d.col(x).setTo(30.f + a * static_cast<float>((x - 32) * (x - 32)));
+    for (int x = 0; x < 64; ++x) d.col(x).setTo(30.f + a * (static_cast<float>(x) - 32.5f) * (static_cast<float>(x) - 32.5f));
     cue.apply(d, cv::Mat1f(d.size(), 0.f), kPatch, kHalving, kMisfitHalving, kBendHalving, c);
     const float bend = 32.f * a / kBendHalving;
-    for (int y = 8; y < 40; ++y) ASSERT_NEAR(c(y, 32), 1.f / (1.f + bend * bend), 1e-4f) << "a " << a << " y " << y;
+    for (int y = 8; y < 40; ++y) {
+      for (int x : {32, 33}) ASSERT_NEAR(c(y, x), 1.f / (1.f + bend * bend), 1e-4f) << "a " << a << " at " << x << "," << y;
+    }
   }
 }
 

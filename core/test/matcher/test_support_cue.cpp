@@ -10,7 +10,7 @@ namespace {
 using bdis::kNoDisparity;
 using bdis::detail::SupportCue;
 
-constexpr int kPatch = 8;          // level px: the box has side 15, 7 px each side
+constexpr int kPatch = 8;          // level px: the box has 7 x 7 blocks of 2 x 2 px, side 14
 constexpr float kHalving = 0.25f;  // share of the box without an estimate that halves
 
 /// The factor the cue gives a pixel whose box lacks estimates at `missing` of its valid pixels.
@@ -45,13 +45,15 @@ TEST(SupportCue, EstimatesBesideAHoleGetTheFactorOfTheMissingShare) {
   m.removeEstimates(cv::Rect(32, 0, 32, 48));  // the right half has no estimate
   SupportCue cue;
   m.apply(cue);
-  // Away from the top and bottom the box has 15 rows; at column x its columns
-  // x-7 .. x+7 lack estimates from 32 on.
-  for (int x = 20; x < 32; ++x) {
-    const float missing = static_cast<float>(std::max(0, x + 7 - 31)) / 15.f;
+  // Away from the top and bottom the box has 14 rows; at column x it spans
+  // the columns of the blocks x / 2 - 3 .. x / 2 + 3, those from 32 on without estimates.
+  for (int x = 16; x < 32; ++x) {
+    const int last_column = 2 * (x / 2 + 3) + 1;
+    const float missing = static_cast<float>(std::max(0, last_column - 31)) / 14.f;
     EXPECT_NEAR(m.confidence(24, x), expectedFactor(missing), 1e-5f) << "x " << x;
   }
-  EXPECT_NEAR(m.confidence(24, 31), expectedFactor(7.f / 15.f), 1e-5f);  // about 0.22
+  EXPECT_NEAR(m.confidence(24, 31), expectedFactor(6.f / 14.f), 1e-5f);  // about 0.25
+  EXPECT_EQ(m.confidence(24, 25), 1.f);  // its box ends at column 31
   for (int x = 32; x < 64; ++x) EXPECT_EQ(m.confidence(24, x), 0.f) << "no estimate stays 0";
 }
 
@@ -62,7 +64,7 @@ TEST(SupportCue, ALoneEstimateAmongHolesIsAlmostDiscounted) {
   m.confidence(20, 30) = 0.8f;
   SupportCue cue;
   m.apply(cue);
-  EXPECT_NEAR(m.confidence(20, 30), 0.8f * expectedFactor(224.f / 225.f), 1e-5f);  // about 0.05
+  EXPECT_NEAR(m.confidence(20, 30), 0.8f * expectedFactor(195.f / 196.f), 1e-5f);  // about 0.05
 }
 
 TEST(SupportCue, BlackFrameDoesNotCountAgainstAnEstimate) {
@@ -83,8 +85,9 @@ TEST(SupportCue, SaturatedPixelsCountAsHoles) {
   m.invalidate(cv::Rect(28, 18, 8, 8), 255.f);
   SupportCue cue;
   m.apply(cue);
-  // Beside the highlight, its box holds 7 of its 8 columns: 56 clipped pixels of 225.
-  EXPECT_NEAR(m.confidence(22, 27), expectedFactor(56.f / 225.f), 1e-5f);
+  // Beside the highlight (block 13: columns 20 .. 33, rows 16 .. 29), its box
+  // holds 6 of its 8 columns: 48 clipped pixels of 196.
+  EXPECT_NEAR(m.confidence(22, 27), expectedFactor(48.f / 196.f), 1e-5f);
   EXPECT_EQ(m.confidence(22, 10), 1.f);  // out of reach
 }
 
