@@ -191,6 +191,24 @@ TEST(SlantCue, TexturedSlantGetsTheFactorOfItsMisfit) {
   EXPECT_NEAR(expectedMisfitFactor(0.05f, 10.f), 0.5f, 1e-6f);
 }
 
+TEST(SlantCue, BoxesCutByTheSidesAverageTheTextureOverTheirOwnPixels) {
+  // A plane slanted along y, uniform texture: along every column, also in
+  // the boxes the left and right sides cut (and an odd width's last block of
+  // one column), the slope read is the plane's and the texture's RMS is g, so
+  // every pixel of the rows away from the top and bottom gets the same factor.
+  const float slope = 0.05f, g = 6.f;
+  SlantCue cue;
+  for (const int w : {37, 38}) {
+    cv::Mat1f d, c;
+    plane(w, 30, 0.f, slope, d, c);
+    cue.apply(d, cv::Mat1f(30, w, g), kPatch, kHalving, kMisfitHalving, kBendOff, c);
+    const float want = expectedFactor(slope) * expectedMisfitFactor(slope, g);
+    for (int y = 10; y < 20; ++y) {
+      for (int x = 0; x < w; ++x) ASSERT_NEAR(c(y, x), want, 1e-4f) << "width " << w << " at " << x << "," << y;
+    }
+  }
+}
+
 TEST(SlantCue, TheMisfitTakesTheGradientsRmsNotItsMean) {
   // Stripes whose gradient alternates +g and -g (mean 0) misfit as much as a
   // ramp of gradient g: a shifted patch is off by g per px of shift either way.
