@@ -77,11 +77,8 @@ void BlockEstimates::row(const cv::Mat1f& disparity, const cv::Mat1f& values, in
   const int columns = std::min(w, 2 * bw);
   pairOfRows(columns, disparity[2 * by], disparity[y1], values[2 * by], values[y1], y1 > 2 * by ? 1.f : 0.f,
              pair_sum_.data(), pair_count_.data());
-  if (2 * bw > w) pair_sum_[w] = pair_count_[w] = 0.f;  // an odd width's last block has one column
-  for (int bx = 0; bx < bw; ++bx) {
-    sum[bx] = pair_sum_[2 * bx] + pair_sum_[2 * bx + 1];
-    count[bx] = pair_count_[2 * bx] + pair_count_[2 * bx + 1];
-  }
+  columnPairsToBlocks(w, bw, pair_sum_.data(), sum);
+  columnPairsToBlocks(w, bw, pair_count_.data(), count);
 }
 
 BDIS_ROW_LOOP
@@ -122,6 +119,11 @@ void blocksToPixels(int w, const float* __restrict blocks, float* __restrict pix
     pixels[2 * bx + 1] = blocks[bx];
   }
   if (w % 2 != 0) pixels[w - 1] = blocks[pairs];
+}
+
+void columnPairsToBlocks(int w, int bw, float* columns, float* blocks) {
+  if (2 * bw > w) columns[w] = 0.f;  // an odd width's last block has one column
+  for (int bx = 0; bx < bw; ++bx) blocks[bx] = columns[2 * bx] + columns[2 * bx + 1];
 }
 
 BDIS_ROW_LOOP
@@ -178,18 +180,37 @@ void BoxSums::nextColumnSums(int y, const float*& a, const float*& b) {
   b = with_b_ ? column_b_.data() : nullptr;
 }
 
-void boxMeansOfEstimates(const cv::Mat1f& disparity, int r, BoxSums& sums, cv::Mat1f& mean) {
-  const int w = disparity.cols, h = disparity.rows;
+namespace {
+
+/// `mean` as h + 1 rows of w + 2r columns: the r columns each side and the
+/// last row kNoDisparity, the rest left for the box means.
+void paddedMeanRows(int w, int h, int r, cv::Mat1f& mean) {
   mean.create(h + 1, w + 2 * r);
   for (int y = 0; y < h; ++y) {
     std::fill(mean[y], mean[y] + r, kNoDisparity);
     std::fill(mean[y] + r + w, mean[y] + w + 2 * r, kNoDisparity);
   }
   std::fill(mean[h], mean[h] + w + 2 * r, kNoDisparity);  // (setTo() would allocate)
+}
+
+}  // namespace
+
+void boxMeansOfEstimates(const cv::Mat1f& disparity, int r, BoxSums& sums, cv::Mat1f& mean) {
+  const int w = disparity.cols, h = disparity.rows;
+  paddedMeanRows(w, h, r, mean);
   sums.begin(w, h, r);
   sums.sweep(
       [&](int y, float* value, float* count) { valuesAtEstimatesRow(w, disparity[y], disparity[y], value, count); },
       [&](int y, const float* sum, const float* n) { boxMeanRow(w, sum, n, mean[y] + r); });
+}
+
+void boxMeansOfBlockEstimates(const cv::Mat1f& disparity, int rb, BlockEstimates& blocks, BoxSums& sums,
+                              cv::Mat1f& mean) {
+  const int bw = (disparity.cols + 1) / 2, bh = (disparity.rows + 1) / 2;
+  paddedMeanRows(bw, bh, rb, mean);
+  sums.begin(bw, bh, rb);
+  sums.sweep([&](int by, float* sum, float* count) { blocks.row(disparity, by, bw, sum, count); },
+             [&](int by, const float* sum, const float* count) { boxMeanRow(bw, sum, count, mean[by] + rb); });
 }
 
 }  // namespace detail

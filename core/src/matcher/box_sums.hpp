@@ -46,6 +46,11 @@ void boxSumsAlongLine(int n, int half, const float* values, std::vector<float>& 
 /// gets block x / 2 (`blocks` holds at least (w + 1) / 2 values).
 void blocksToPixels(int w, const float* blocks, float* pixels);
 
+/// blocks[bx] = columns[2 bx] + columns[2 bx + 1] for bx < bw: a row of
+/// per-column values of w columns summed per 2 x 2 block. `columns` holds
+/// 2 bw values; an odd width's missing column (index w) is set to 0 first.
+void columnPairsToBlocks(int w, int bw, float* columns, float* blocks);
+
 /// confidence[x] *= factor[x] where disparity[x] is an estimate (>= 0).
 void multiplyAtEstimatesRow(int w, const float* factor, const float* disparity, float* confidence);
 
@@ -120,6 +125,12 @@ class BoxSums {
 /// stands in for the rows beyond the map. Sums through `sums`; both buffers
 /// are kept for the next frame of the same size.
 void boxMeansOfEstimates(const cv::Mat1f& disparity, int r, BoxSums& sums, cv::Mat1f& mean);
+
+/// The same per 2 x 2 block of `disparity` (blocks from `blocks`), over boxes
+/// of 2 rb + 1 blocks: (h + 1) / 2 + 1 rows of (w + 1) / 2 + 2 rb columns,
+/// block (bx, by) at mean(by, bx + rb), kNoDisparity padded likewise.
+void boxMeansOfBlockEstimates(const cv::Mat1f& disparity, int rb, BlockEstimates& blocks, BoxSums& sums,
+                              cv::Mat1f& mean);
 
 }  // namespace detail
 }  // namespace bdis

@@ -2,9 +2,8 @@
 
 #include <algorithm>
 
-#include "bdis_stereo/matcher.hpp"  // kNoDisparity
 #include "confidence.hpp"
-#include "patch_kernels.hpp"        // BDIS_ROW_LOOP
+#include "patch_kernels.hpp"  // BDIS_ROW_LOOP
 
 namespace bdis {
 namespace detail {
@@ -24,8 +23,7 @@ void blockSquaresRow(int w, int bw, const float* g0, const float* g1, float g1_w
                      float* blocks) {
   pairs.resize(static_cast<size_t>(2 * bw));
   for (int x = 0; x < w; ++x) pairs[static_cast<size_t>(x)] = g0[x] * g0[x] + g1_weight * g1[x] * g1[x];
-  if (2 * bw > w) pairs[static_cast<size_t>(w)] = 0.f;
-  for (int bx = 0; bx < bw; ++bx) blocks[bx] = pairs[2 * static_cast<size_t>(bx)] + pairs[2 * static_cast<size_t>(bx) + 1];
+  columnPairsToBlocks(w, bw, pairs.data(), blocks);
 }
 
 /// The pixels a box of blocks b - rb .. b + rb covers, clipped to n pixels.
@@ -62,15 +60,7 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
   const int bw = (w + 1) / 2, bh = (h + 1) / 2;  // 2 x 2 blocks
   // The box about a patch side, the slope's step half of one.
   const int rb = halfPatchInBlocks(patch_px);
-  mean_.create(bh + 1, bw + 2 * rb);
-  for (int by = 0; by < bh; ++by) {
-    std::fill(mean_[by], mean_[by] + rb, kNoDisparity);
-    std::fill(mean_[by] + rb + bw, mean_[by] + bw + 2 * rb, kNoDisparity);
-  }
-  std::fill(mean_[bh], mean_[bh] + bw + 2 * rb, kNoDisparity);
-  sums_.begin(bw, bh, rb);
-  sums_.sweep([&](int by, float* sum, float* count) { blocks_.row(disparity, by, bw, sum, count); },
-              [&](int by, const float* sum, const float* count) { boxMeanRow(bw, sum, count, mean_[by] + rb); });
+  boxMeansOfBlockEstimates(disparity, rb, blocks_, sums_, mean_);
 
   // The box sums of the squared gradient, over the clipped box's pixels.
   gradient_sums_.begin(bw, bh, rb, /*with_b=*/false);

@@ -51,12 +51,12 @@ void blockIndicatorRow(int w, int bw, const float* d0, const uchar* v0, const fl
   float* p1 = e1 + 2 * bw;
   indicatorRows(w, d0, v0, g0, e0, p0);
   indicatorRows(w, d1, v1, g1, e1, p1);
-  if (2 * bw > w) e0[w] = p0[w] = e1[w] = p1[w] = 0.f;
-  for (int bx = 0; bx < bw; ++bx) {
-    const int a = 2 * bx;
-    estimates[bx] = e0[a] + e0[a + 1] + second_weight * (e1[a] + e1[a + 1]);
-    valid_pixels[bx] = p0[a] + p0[a + 1] + second_weight * (p1[a] + p1[a + 1]);
+  for (int x = 0; x < w; ++x) {
+    e0[x] += second_weight * e1[x];
+    p0[x] += second_weight * p1[x];
   }
+  columnPairsToBlocks(w, bw, e0, estimates);
+  columnPairsToBlocks(w, bw, p0, valid_pixels);
 }
 
 }  // namespace
