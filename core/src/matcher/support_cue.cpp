@@ -38,22 +38,21 @@ void supportFactorRow(int bw, const float* __restrict estimates, const float* __
   }
 }
 
-/// Per 2 x 2 block of the two rows (the second one's weight 0 for the last
-/// block row of an odd height), the count of its estimates and of its
+/// Per 2 x 2 block of rows y0 and y1 (y1 < 0 for the last block row of an
+/// odd height, which has one), the count of its estimates and of its
 /// countable pixels; bw blocks (an odd width's last block has one column).
-void blockIndicatorRow(int w, int bw, const float* d0, const uchar* v0, const float* g0, const float* d1,
-                       const uchar* v1, const float* g1, float second_weight, std::vector<float>& scratch,
-                       float* estimates, float* valid_pixels) {
+void blockIndicatorRow(int w, int bw, int y0, int y1, const cv::Mat1f& disparity, const cv::Mat1b& valid,
+                       const cv::Mat1f& grey, std::vector<float>& scratch, float* estimates, float* valid_pixels) {
   scratch.resize(static_cast<size_t>(8 * bw));
   float* e0 = scratch.data();
   float* p0 = e0 + 2 * bw;
   float* e1 = p0 + 2 * bw;
   float* p1 = e1 + 2 * bw;
-  indicatorRows(w, d0, v0, g0, e0, p0);
-  indicatorRows(w, d1, v1, g1, e1, p1);
-  for (int x = 0; x < w; ++x) {
-    e0[x] += second_weight * e1[x];
-    p0[x] += second_weight * p1[x];
+  indicatorRows(w, disparity[y0], valid[y0], grey[y0], e0, p0);
+  if (y1 >= 0) {
+    indicatorRows(w, disparity[y1], valid[y1], grey[y1], e1, p1);
+    addRow(w, e1, e0);
+    addRow(w, p1, p0);
   }
   columnPairsToBlocks(w, bw, e0, estimates);
   columnPairsToBlocks(w, bw, p0, valid_pixels);
@@ -73,9 +72,8 @@ void SupportCue::apply(const cv::Mat1f& disparity, const cv::Mat1b& valid, const
   const float inv_halving_sq = 1.f / (halving_share * halving_share);
   sums_.sweep(
       [&](int by, float* estimates, float* valid_pixels) {
-        const int y1 = std::min(2 * by + 1, h - 1);
-        blockIndicatorRow(w, bw, disparity[2 * by], valid[2 * by], grey[2 * by], disparity[y1], valid[y1], grey[y1],
-                          y1 > 2 * by ? 1.f : 0.f, scratch_, estimates, valid_pixels);
+        const int y1 = 2 * by + 1 < h ? 2 * by + 1 : -1;
+        blockIndicatorRow(w, bw, 2 * by, y1, disparity, valid, grey, scratch_, estimates, valid_pixels);
       },
       [&](int by, const float* n_estimates, const float* n_valid) {
         supportFactorRow(bw, n_estimates, n_valid, inv_halving_sq, factor_.data());
