@@ -70,41 +70,41 @@ inline float centroidCorrected(float d, float gx, float gy, float sum, float sum
   return d >= 0.f ? std::max(d - shift, 0.f) : d;
 }
 
-/// Columns [begin, end) of one row, each with the slope at its own column.
-/// `mean`, `above` and `below` point at column 0 of padded box-mean rows.
+/// One row's estimates, each with the slope (gx, gy) of its own column.
 BDIS_ROW_LOOP
-void correctRow(int begin, int end, int r, const float* __restrict above, const float* __restrict mean,
-                const float* __restrict below, const float* __restrict sum, const float* __restrict sum_x,
-                const float* __restrict sum_y, float max_shift, float* __restrict disparity) {
-  const float inv_step = 1.f / static_cast<float>(r);
-  for (int x = begin; x < end; ++x) {
-    const float gx = slopeAcross(mean[x - r], mean[x], mean[x + r], inv_step);
-    const float gy = slopeAcross(above[x], mean[x], below[x], inv_step);
-    disparity[x] = centroidCorrected(disparity[x], gx, gy, sum[x], sum_x[x], sum_y[x], max_shift);
+void correctRow(int w, const float* __restrict gx, const float* __restrict gy, const float* __restrict sum,
+                const float* __restrict sum_x, const float* __restrict sum_y, float max_shift,
+                float* __restrict disparity) {
+  for (int x = 0; x < w; ++x) {
+    disparity[x] = centroidCorrected(disparity[x], gx[x], gy[x], sum[x], sum_x[x], sum_y[x], max_shift);
   }
 }
 
-/// Columns [begin, end) of one row with the slope along x of column
-/// `slope_column` (along y each its own).
-void correctColumnsWithSlopeOf(int slope_column, int begin, int end, int r, const float* above, const float* mean,
-                               const float* below, const float* sum, const float* sum_x, const float* sum_y,
-                               float max_shift, float* disparity) {
-  const float inv_step = 1.f / static_cast<float>(r);
-  const float gx = slopeAcross(mean[slope_column - r], mean[slope_column], mean[slope_column + r], inv_step);
-  for (int x = begin; x < end; ++x) {
-    const float gy = slopeAcross(above[x], mean[x], below[x], inv_step);
-    disparity[x] = centroidCorrected(disparity[x], gx, gy, sum[x], sum_x[x], sum_y[x], max_shift);
+/// One row of 2 x 2 blocks' slopes from the padded box means of block rows
+/// `above`, `mean`, `below` (rb apart), rb blocks (2 rb px) to each side.
+/// Along x the blocks within `strip` of a side take the slope of the block
+/// the strip ends at (see sideStrip); along y each its own.
+BDIS_ROW_LOOP
+void blockSlopesRow(int bw, int rb, int strip, const float* __restrict above, const float* __restrict mean,
+                    const float* __restrict below, float* __restrict gx, float* __restrict gy) {
+  const float inv_step = 1.f / static_cast<float>(2 * rb);
+  for (int bx = 0; bx < bw; ++bx) gy[bx] = slopeAcross(above[bx], mean[bx], below[bx], inv_step);
+  for (int bx = strip; bx < bw - strip; ++bx) gx[bx] = slopeAcross(mean[bx - rb], mean[bx], mean[bx + rb], inv_step);
+  for (int bx = 0; bx < strip; ++bx) {
+    gx[bx] = gx[strip];
+    gx[bw - 1 - bx] = gx[bw - 1 - strip];
   }
 }
 
-/// The pixels nearer a side than `3 r` take the slope there. Within r of
-/// the side the estimates lean towards the inside (the patches covering
-/// them all lie further in, so they flatten a slope towards the side:
-/// what this correction undoes), and every box mean whose box reaches that
-/// strip carries it into the slope, as does a box clipped by the side.
-/// From 3 r in, the central difference's boxes (r either way, radius r)
-/// reach neither. 0 where the map is too small to have both sides' columns
-/// apart: every pixel its own slope.
+/// The blocks nearer a side than `3 r` (r: the box radius and the slope's
+/// step, in blocks) take the slope there. Within a half patch of the side
+/// the estimates lean towards the inside (the patches covering them all lie
+/// further in, so they flatten a slope towards the side: what this
+/// correction undoes), and every box mean whose box reaches that strip
+/// carries it into the slope, as does a box clipped by the side. From 3 r
+/// in, the central difference's boxes (r either way, radius r) reach
+/// neither. 0 where the map is too small to have both sides' blocks apart:
+/// every block its own slope.
 int sideStrip(int size, int r) { return size > 6 * r + 1 ? 3 * r : 0; }
 
 }  // namespace
@@ -116,7 +116,14 @@ void TextureCentroidCorrection::apply(const PyramidLevel& level, int patch_px, f
   const int r = std::max(1, patch_px / 2);
   const int ring = 2 * r + 1;
   if (w < ring || h < ring) return;  // no whole box: nothing to correct against
-  boxMeansOfEstimates(disparity, r, sums_, mean_);  // before any estimate moves
+  // The slope from box means of 2 x 2 blocks: a surface's, smooth enough at
+  // a block's step (as the slant cue's).
+  const int bw = (w + 1) / 2, bh = (h + 1) / 2, rb = halfPatchInBlocks(patch_px);
+  boxMeansOfBlockEstimates(disparity, rb, blocks_, sums_, mean_);  // before any estimate moves
+  block_gx_.resize(static_cast<size_t>(bw));
+  block_gy_.resize(static_cast<size_t>(bw));
+  gx_.resize(static_cast<size_t>(w));
+  gy_.resize(static_cast<size_t>(w));
   padded_.assign(static_cast<size_t>(w + 2 * r), 0.f);
   energy_.create(ring, w);
   moment_x_.create(ring, w);
@@ -146,10 +153,19 @@ void TextureCentroidCorrection::apply(const PyramidLevel& level, int patch_px, f
       moment[x] = moment[w - 1 - r] + static_cast<float>(w - 1 - r - x) * sum[w - 1 - r];
     }
   };
-  const float* none = mean_[h] + r;
-  const int strip_columns = sideStrip(w, r), strip_rows = sideStrip(h, r);
+  const float* none = mean_[bh] + rb;
+  const int strip_columns = sideStrip(bw, rb), strip_rows = sideStrip(bh, rb);
   int next = 0;  // the next row whose horizontal sums the ring gets
   for (int y = 0; y < h; ++y) {
+    if (y % 2 == 0) {
+      // The slopes of block rows within the strip by a side are those of
+      // the row the strip ends at, for the same reason as the columns'.
+      const int by = std::min(std::max(y / 2, strip_rows), bh - 1 - strip_rows);
+      blockSlopesRow(bw, rb, strip_columns, by >= rb ? mean_[by - rb] + rb : none, mean_[by] + rb,
+                     by + rb < bh ? mean_[by + rb] + rb : none, block_gx_.data(), block_gy_.data());
+      blocksToPixels(w, block_gx_.data(), gx_.data());
+      blocksToPixels(w, block_gy_.data(), gy_.data());
+    }
     // The box's rows, likewise against the top or bottom within r of them.
     const int top = std::min(std::max(0, y - r), h - ring);
     for (; next < top + ring; ++next) horizontal(next);  // overwrites rows above the box
@@ -164,20 +180,7 @@ void TextureCentroidCorrection::apply(const PyramidLevel& level, int patch_px, f
       verticalMomentsRow<0>(w, ring, top - y, energy_rows_.data(), moment_rows_.data(), sum_.data(), sum_x_.data(),
                             sum_y_.data());
     }
-    // The slopes of rows within the strip by a side are those of the row
-    // the strip ends at, for the same reason as the columns'.
-    const int ys = std::min(std::max(y, strip_rows), h - 1 - strip_rows);
-    const float* above = ys >= r ? mean_[ys - r] + r : none;
-    const float* mean = mean_[ys] + r;
-    const float* below = ys + r < h ? mean_[ys + r] + r : none;
-    correctRow(strip_columns, w - strip_columns, r, above, mean, below, sum_.data(), sum_x_.data(), sum_y_.data(),
-               max_shift, disparity[y]);
-    if (strip_columns > 0) {
-      correctColumnsWithSlopeOf(strip_columns, 0, strip_columns, r, above, mean, below, sum_.data(), sum_x_.data(),
-                                sum_y_.data(), max_shift, disparity[y]);
-      correctColumnsWithSlopeOf(w - 1 - strip_columns, w - strip_columns, w, r, above, mean, below, sum_.data(),
-                                sum_x_.data(), sum_y_.data(), max_shift, disparity[y]);
-    }
+    correctRow(w, gx_.data(), gy_.data(), sum_.data(), sum_x_.data(), sum_y_.data(), max_shift, disparity[y]);
   }
 }
 

@@ -32,9 +32,11 @@ class TextureCentroidCorrection {
   /// squared horizontal gradient of the valid left pixels in the box of side
   /// 2 r + 1 around it (r = `patch_px` / 2; within r of a side the box lies
   /// against it, as the patches covering the pixel do), and g, the surface's
-  /// slope there (the slant cue's: central differences of the estimates'
-  /// box means, r to each side; within 3 r of a side, the slope 3 r from it,
-  /// whose boxes clear the strip the side's patches flatten). The estimate
+  /// slope there (the slant cue's: central differences of the box means of
+  /// the estimates' 2 x 2 blocks, boxes of 2 rb + 1 blocks, rb =
+  /// halfPatchInBlocks, rb blocks to each side, one slope per block; within
+  /// 3 rb blocks of a side, the slope 3 rb blocks from it, whose boxes clear
+  /// the strip the side's patches flatten). The estimate
   /// becomes d - g . c, with g . c limited to +-`max_shift` (level px;
   /// beyond it the slope is a depth jump, not a surface) and the result to
   /// d >= 0. A box without texture
@@ -43,8 +45,11 @@ class TextureCentroidCorrection {
   void apply(const PyramidLevel& level, int patch_px, float max_shift, cv::Mat1f& disparity);
 
  private:
-  BoxSums sums_;        ///< of the estimates and of their count
-  cv::Mat1f mean_;      ///< their box means, padded (boxMeansOfEstimates)
+  BlockEstimates blocks_;  ///< the estimates' sum and count per 2 x 2 block
+  BoxSums sums_;           ///< their box sums
+  cv::Mat1f mean_;         ///< the blocks' box means, padded (boxMeansOfBlockEstimates)
+  std::vector<float> block_gx_, block_gy_;  ///< one block row's slopes
+  std::vector<float> gx_, gy_;              ///< the same on the row's pixels
   std::vector<float> padded_;     ///< a row's squared gradient, r zeros each side
   cv::Mat1f energy_, moment_x_;   ///< a ring of 2r + 1 rows: horizontal box sums of it, and of it times the offset
   std::vector<float> sum_, sum_x_, sum_y_;  ///< one row's box sums: energy, and its moments in x and y
