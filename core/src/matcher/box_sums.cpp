@@ -92,15 +92,6 @@ void subtractRow(int w, const float* __restrict row, float* __restrict sum) {
 }
 
 BDIS_ROW_LOOP
-void valuesAtEstimatesRow(int w, const float* __restrict disparity, const float* __restrict values,
-                          float* __restrict value, float* __restrict count) {
-  for (int x = 0; x < w; ++x) {
-    value[x] = disparity[x] >= 0.f ? values[x] : 0.f;
-    count[x] = disparity[x] >= 0.f ? 1.f : 0.f;
-  }
-}
-
-BDIS_ROW_LOOP
 void boxMeanRow(int w, const float* __restrict sum, const float* __restrict count, float* __restrict mean) {
   for (int x = 0; x < w; ++x) mean[x] = count[x] > 0.5f ? sum[x] / std::max(count[x], 1.f) : kNoDisparity;
 }
@@ -194,15 +185,6 @@ void paddedMeanRows(int w, int h, int r, cv::Mat1f& mean) {
 }
 
 }  // namespace
-
-void boxMeansOfEstimates(const cv::Mat1f& disparity, int r, BoxSums& sums, cv::Mat1f& mean) {
-  const int w = disparity.cols, h = disparity.rows;
-  paddedMeanRows(w, h, r, mean);
-  sums.begin(w, h, r);
-  sums.sweep(
-      [&](int y, float* value, float* count) { valuesAtEstimatesRow(w, disparity[y], disparity[y], value, count); },
-      [&](int y, const float* sum, const float* n) { boxMeanRow(w, sum, n, mean[y] + r); });
-}
 
 void boxMeansOfBlockEstimates(const cv::Mat1f& disparity, int rb, BlockEstimates& blocks, BoxSums& sums,
                               cv::Mat1f& mean) {

@@ -16,11 +16,6 @@ namespace detail {
 void addRow(int w, const float* row, float* sum);
 void subtractRow(int w, const float* row, float* sum);
 
-/// A row to box-sum over the estimates (disparity >= 0): value[x] =
-/// values[x] and count[x] = 1 where there is one, 0 and 0 where there is
-/// none. `values` may be the disparity itself.
-void valuesAtEstimatesRow(int w, const float* disparity, const float* values, float* value, float* count);
-
 /// mean[x] = sum[x] / count[x] where a box holds an estimate (count >= 1),
 /// kNoDisparity where it holds none.
 void boxMeanRow(int w, const float* sum, const float* count, float* mean);
@@ -118,17 +113,13 @@ class BoxSums {
   std::vector<float> column_a_, column_b_;  ///< one row of box sums
 };
 
-/// The mean of the estimates of `disparity` (>= 0) in the (2r+1) x (2r+1)
-/// box around each pixel, clipped to the map, into `mean`: h + 1 rows of
-/// w + 2r columns, pixel (x, y) at mean(y, x + r); kNoDisparity where a box
-/// holds no estimate, in the r columns each side and in the last row, which
-/// stands in for the rows beyond the map. Sums through `sums`; both buffers
-/// are kept for the next frame of the same size.
-void boxMeansOfEstimates(const cv::Mat1f& disparity, int r, BoxSums& sums, cv::Mat1f& mean);
-
-/// The same per 2 x 2 block of `disparity` (blocks from `blocks`), over boxes
-/// of 2 rb + 1 blocks: (h + 1) / 2 + 1 rows of (w + 1) / 2 + 2 rb columns,
-/// block (bx, by) at mean(by, bx + rb), kNoDisparity padded likewise.
+/// The mean of the estimates of `disparity` (>= 0) per 2 x 2 block (blocks
+/// from `blocks`), over boxes of 2 rb + 1 blocks clipped to the map, into
+/// `mean`: (h + 1) / 2 + 1 rows of (w + 1) / 2 + 2 rb columns, block (bx, by)
+/// at mean(by, bx + rb); kNoDisparity where a box holds no estimate, in the
+/// rb columns each side and in the last row, which stands in for the rows
+/// beyond the map. Sums through `sums`; the buffers are kept for the next
+/// frame of the same size.
 void boxMeansOfBlockEstimates(const cv::Mat1f& disparity, int rb, BlockEstimates& blocks, BoxSums& sums,
                               cv::Mat1f& mean);
 
