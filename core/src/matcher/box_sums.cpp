@@ -31,17 +31,20 @@ void boxRowAnySide(int w, int side, const float* __restrict padded, float* __res
       out[x] = sum;                                                                     \
     }                                                                                   \
   }
-// The boxes of the default patch side, 8: the slant cue's p + 1, the support
-// cue's 2p - 1 and the consensus cue's 2p + 1 (in blocks).
+// The boxes of the default patch side, 8: in 2 x 2 blocks, the slant and
+// neighbourhood cues' and the correction's slope's 5, the support cue's 7
+// and the consensus cue's 17; along the image border cue's lines, 9 px.
+BDIS_BOX_ROW_FIXED(5)
+BDIS_BOX_ROW_FIXED(7)
 BDIS_BOX_ROW_FIXED(9)
-BDIS_BOX_ROW_FIXED(15)
 BDIS_BOX_ROW_FIXED(17)
 #undef BDIS_BOX_ROW_FIXED
 
 void boxRow(int w, int side, const float* padded, float* out) {
   switch (side) {
+    case 5: return boxRow5(w, padded, out);
+    case 7: return boxRow7(w, padded, out);
     case 9: return boxRow9(w, padded, out);
-    case 15: return boxRow15(w, padded, out);
     case 17: return boxRow17(w, padded, out);
     default: return boxRowAnySide(w, side, padded, out);
   }
@@ -112,9 +115,18 @@ void blocksToPixels(int w, const float* __restrict blocks, float* __restrict pix
   if (w % 2 != 0) pixels[w - 1] = blocks[pairs];
 }
 
+namespace {
+
+BDIS_ROW_LOOP
+void addColumnPairs(int bw, const float* __restrict columns, float* __restrict blocks) {
+  for (int bx = 0; bx < bw; ++bx) blocks[bx] = columns[2 * bx] + columns[2 * bx + 1];
+}
+
+}  // namespace
+
 void columnPairsToBlocks(int w, int bw, float* columns, float* blocks) {
   if (2 * bw > w) columns[w] = 0.f;  // an odd width's last block has one column
-  for (int bx = 0; bx < bw; ++bx) blocks[bx] = columns[2 * bx] + columns[2 * bx + 1];
+  addColumnPairs(bw, columns, blocks);
 }
 
 BDIS_ROW_LOOP
