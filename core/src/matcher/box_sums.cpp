@@ -129,10 +129,24 @@ void columnPairsToBlocks(int w, int bw, float* columns, float* blocks) {
   addColumnPairs(bw, columns, blocks);
 }
 
+namespace {
+
 BDIS_ROW_LOOP
 void multiplyAtEstimatesRow(int w, const float* __restrict factor, const float* __restrict disparity,
                             float* __restrict confidence) {
   for (int x = 0; x < w; ++x) confidence[x] = disparity[x] >= 0.f ? confidence[x] * factor[x] : confidence[x];
+}
+
+}  // namespace
+
+void multiplyBlockRowAtEstimates(int by, const float* block_factor, std::vector<float>& pixel_factor,
+                                 const cv::Mat1f& disparity, cv::Mat1f& confidence) {
+  const int w = disparity.cols, h = disparity.rows;
+  pixel_factor.resize(static_cast<size_t>(w));
+  blocksToPixels(w, block_factor, pixel_factor.data());
+  for (int y = 2 * by; y < std::min(2 * by + 2, h); ++y) {
+    multiplyAtEstimatesRow(w, pixel_factor.data(), disparity[y], confidence[y]);
+  }
 }
 
 void BoxSums::begin(int w, int h, int r, bool with_b) {

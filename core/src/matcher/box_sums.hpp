@@ -46,8 +46,11 @@ void blocksToPixels(int w, const float* blocks, float* pixels);
 /// 2 bw values; an odd width's missing column (index w) is set to 0 first.
 void columnPairsToBlocks(int w, int bw, float* columns, float* blocks);
 
-/// confidence[x] *= factor[x] where disparity[x] is an estimate (>= 0).
-void multiplyAtEstimatesRow(int w, const float* factor, const float* disparity, float* confidence);
+/// A block row's factors (one per 2 x 2 block of block row `by`) onto the
+/// confidences of its pixel rows, where they have an estimate (disparity >=
+/// 0). `pixel_factor` is scratch of one pixel row, kept for the next call.
+void multiplyBlockRowAtEstimates(int by, const float* block_factor, std::vector<float>& pixel_factor,
+                                 const cv::Mat1f& disparity, cv::Mat1f& confidence);
 
 /// Half a patch side in 2 x 2 blocks, `patch_px` / 4 rounded half up (at
 /// least 1): the radius of the patch-sized boxes of blocks (slant_cue.hpp,

@@ -67,7 +67,6 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
   inv_box_columns_.resize(static_cast<size_t>(bw));
   for (int bx = 0; bx < bw; ++bx) inv_box_columns_[static_cast<size_t>(bx)] = 1.f / clippedPixels(bx, w, rb);
   factor_.resize(static_cast<size_t>(bw));
-  pixel_factor_.resize(static_cast<size_t>(w));
 
   // agreement(|grad D| * patch_px, halving) = agreement(|grad D|, halving / patch_px),
   // and likewise for the misfit |grad D| * patch_px * g.
@@ -87,10 +86,7 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
                        by + rb < bh ? mean_[by + rb] + rb : none, inv_halving_sq, gradient_sq_sum,
                        inv_box_columns_.data(), 1.f / clippedPixels(by, h, rb), inv_misfit_halving_sq,
                        inv_bend_halving_sq, factor_.data());
-        blocksToPixels(w, factor_.data(), pixel_factor_.data());
-        for (int y = 2 * by; y < std::min(2 * by + 2, h); ++y) {
-          multiplyAtEstimatesRow(w, pixel_factor_.data(), disparity[y], confidence[y]);
-        }
+        multiplyBlockRowAtEstimates(by, factor_.data(), pixel_factor_, disparity, confidence);
       });
 }
 

@@ -68,7 +68,6 @@ void SupportCue::apply(const cv::Mat1f& disparity, const cv::Mat1b& valid, const
   // A box of about 2 patch_px - 1 pixels: what the patches covering the pixel reach.
   sums_.begin(bw, bh, std::max(1, (patch_px - 1) / 2));
   factor_.resize(static_cast<size_t>(bw));
-  pixel_factor_.resize(static_cast<size_t>(w));
   const float inv_halving_sq = 1.f / (halving_share * halving_share);
   sums_.sweep(
       [&](int by, float* estimates, float* valid_pixels) {
@@ -77,10 +76,7 @@ void SupportCue::apply(const cv::Mat1f& disparity, const cv::Mat1b& valid, const
       },
       [&](int by, const float* n_estimates, const float* n_valid) {
         supportFactorRow(bw, n_estimates, n_valid, inv_halving_sq, factor_.data());
-        blocksToPixels(w, factor_.data(), pixel_factor_.data());
-        for (int y = 2 * by; y < std::min(2 * by + 2, h); ++y) {
-          multiplyAtEstimatesRow(w, pixel_factor_.data(), disparity[y], confidence[y]);
-        }
+        multiplyBlockRowAtEstimates(by, factor_.data(), pixel_factor_, disparity, confidence);
       });
 }
 
