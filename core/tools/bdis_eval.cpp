@@ -195,8 +195,8 @@ struct Row {
 };
 
 // Decades: the confidence is a product of agreement factors and spans many
-// of them (on the colon sequences half of the estimates lie below 1e-3, a
-// tenth below 1e-7), and the trade of density against bad2 runs across all.
+// of them (on the colon sequences half of the estimates lie below about 1e-3,
+// a tenth below about 1e-7), and the trade of density against bad2 runs across all.
 const std::vector<float> kConfidenceThresholds = {0.f, 1e-8f, 1e-7f, 1e-6f, 1e-5f, 1e-4f, 1e-3f, 1e-2f, 1e-1f};
 
 std::vector<std::string> split(const std::string& s, char sep) {
