@@ -206,24 +206,26 @@ bool Sparsification::monotone(double tolerance) const {
   return true;
 }
 
-Sparsification sparsify(const EstimateSamples& samples) {
+Sparsification sparsify(const EstimateSamples& samples) { return sparsifyBy(samples.confidence, samples.abs_error); }
+
+Sparsification sparsifyBy(const std::vector<float>& trust, const std::vector<float>& abs_error) {
   Sparsification s;
-  const size_t n = samples.size();
-  if (n == 0) return s;
+  const size_t n = abs_error.size();
+  if (n == 0 || trust.size() != n) return s;
   std::vector<size_t> by_confidence(n), by_error(n);
   std::iota(by_confidence.begin(), by_confidence.end(), size_t{0});
   std::iota(by_error.begin(), by_error.end(), size_t{0});
   // Most confident first; ties keep a fixed order (by error, worst first, so
   // that a constant confidence ranks no better than chance would).
   std::stable_sort(by_error.begin(), by_error.end(),
-                   [&](size_t a, size_t b) { return samples.abs_error[a] > samples.abs_error[b]; });
+                   [&](size_t a, size_t b) { return abs_error[a] > abs_error[b]; });
   by_confidence = by_error;
   std::stable_sort(by_confidence.begin(), by_confidence.end(),
-                   [&](size_t a, size_t b) { return samples.confidence[a] > samples.confidence[b]; });
+                   [&](size_t a, size_t b) { return trust[a] > trust[b]; });
   std::reverse(by_error.begin(), by_error.end());  // the oracle: smallest error first
   auto prefixBad = [&](const std::vector<size_t>& order) {
     std::vector<size_t> prefix(n + 1, 0);
-    for (size_t i = 0; i < n; ++i) prefix[i + 1] = prefix[i] + (samples.abs_error[order[i]] > 2.f ? 1 : 0);
+    for (size_t i = 0; i < n; ++i) prefix[i + 1] = prefix[i] + (abs_error[order[i]] > 2.f ? 1 : 0);
     return prefix;
   };
   const std::vector<size_t> bad_confident = prefixBad(by_confidence), bad_oracle = prefixBad(by_error);
@@ -282,6 +284,10 @@ VarianceCalibration calibrateVariance(const EstimateSamples& samples) {
   c.within2 = two / static_cast<double>(c.samples);
   std::nth_element(ratio.begin(), ratio.begin() + static_cast<long>(ratio.size() / 2), ratio.end());
   c.median_ratio = ratio[ratio.size() / 2];
+  // Ranked as a confidence: the smallest sigma first.
+  std::vector<float> trust(samples.sigma.size());
+  std::transform(samples.sigma.begin(), samples.sigma.end(), trust.begin(), [](float s) { return -s; });
+  c.ranking_ratio = sparsifyBy(trust, samples.abs_error).ratio();
   return c;
 }
 

@@ -41,7 +41,8 @@ Besides the summary table it prints, per sequence and method:
     sparsification area against the oracle's, bad2 of the 25 % and 50 % most
     confident estimates, bad2 per confidence decile, and the density and bad2
     left by confidence thresholds;
-  - with compute_variance: the share of errors within 1 and 2 sigma;
+  - with compute_variance: the share of errors within 1 and 2 sigma, and
+    the sparsification ratio of sigma as a ranking of the errors;
   - for sequences without gt_disparity/: density over the valid pixels and
     the outliers in the strips along the rectification border;
   - per sequence, the contrast of a block codec's 8 x 8 grid in its views
@@ -419,13 +420,15 @@ void printVariance(const std::vector<Row>& rows) {
   bool any = false;
   for (const Row& r : rows) any = any || (r.has_ground_truth && r.has_variance);
   if (!any) return;
-  std::printf("\nvariance as a standard deviation of the error (a Gaussian: 68 %% / 95 %% / 0.674)\n");
-  std::printf("%-28s %-11s %9s %9s %14s\n", "sequence", "method", "within 1s", "within 2s", "median |e|/s");
+  std::printf("\nvariance as a standard deviation of the error (a Gaussian: 68 %% / 95 %% / 0.674), and as a\n"
+              "ranking of the errors (sparsification ratio, the smallest sigma as the most confident)\n");
+  std::printf("%-28s %-11s %9s %9s %14s %8s\n", "sequence", "method", "within 1s", "within 2s", "median |e|/s",
+              "ranking");
   for (const Row& r : rows) {
     if (!r.has_ground_truth || !r.has_variance) continue;
     const VarianceCalibration c = calibrateVariance(r.samples);
-    std::printf("%-28s %-11s %8.1f%% %8.1f%% %14.3f\n", r.sequence.c_str(), r.method.c_str(), 100 * c.within1,
-                100 * c.within2, c.median_ratio);
+    std::printf("%-28s %-11s %8.1f%% %8.1f%% %14.3f %8.2f\n", r.sequence.c_str(), r.method.c_str(),
+                100 * c.within1, 100 * c.within2, c.median_ratio, c.ranking_ratio);
   }
 }
 
@@ -501,7 +504,8 @@ void writeJson(const std::string& path, const MatcherParams& params, const std::
       if (r.has_variance) {
         const VarianceCalibration c = calibrateVariance(r.samples);
         js << ",\n     \"variance\": {\"within_1_sigma\": " << c.within1 << ", \"within_2_sigma\": " << c.within2
-           << ", \"median_error_over_sigma\": " << c.median_ratio << "}";
+           << ", \"median_error_over_sigma\": " << c.median_ratio << ", \"ranking_ratio\": " << c.ranking_ratio
+           << "}";
       }
     } else {
       js << ", \"valid_pixel_density\": " << (r.frames ? r.valid_pixels_density_sum / static_cast<double>(r.frames) : 0.0)

@@ -80,6 +80,9 @@ struct Sparsification {
   bool monotone(double tolerance = 0.0) const;
 };
 Sparsification sparsify(const EstimateSamples& samples);
+/// The same for any score, a higher `trust` ranking an estimate as more
+/// likely right; `trust` and `abs_error` pair up index by index.
+Sparsification sparsifyBy(const std::vector<float>& trust, const std::vector<float>& abs_error);
 
 /// What a confidence threshold leaves: density (of all scorable pixels) and
 /// bad2 of the estimates whose confidence is at least `threshold`.
@@ -90,10 +93,12 @@ struct ThresholdRow {
 std::vector<ThresholdRow> confidenceThresholds(const EstimateSamples& samples, const std::vector<float>& thresholds);
 
 /// How well a variance describes the errors, as a standard deviation should:
-/// the shares of |error| within 1 and 2 sigma (a Gaussian: 68 % and 95 %) and
-/// the median of |error| / sigma (a Gaussian: 0.674).
+/// the shares of |error| within 1 and 2 sigma (a Gaussian: 68 % and 95 %),
+/// the median of |error| / sigma (a Gaussian: 0.674), and how well sigma
+/// ranks the errors: the sparsification ratio with the smallest sigma taken
+/// as the most confident (what a node weighting by 1 / variance relies on).
 struct VarianceCalibration {
-  double within1 = 0, within2 = 0, median_ratio = 0;
+  double within1 = 0, within2 = 0, median_ratio = 0, ranking_ratio = 0;
   size_t samples = 0;
 };
 VarianceCalibration calibrateVariance(const EstimateSamples& samples);

@@ -146,6 +146,32 @@ TEST(ErrorVariance, GaussianErrorsWithTheirSigmaAreCalibrated) {
   EXPECT_NEAR(bdis::calibrateVariance(s).within1, 0.9545, 0.005);
 }
 
+TEST(ErrorVariance, RanksTheErrorsBySigmaAsAConfidence) {
+  // 80 estimates off by 0.5 px and 20 by 5 px (outliers).
+  EstimateSamples s;
+  for (int i = 0; i < 100; ++i) {
+    s.abs_error.push_back(i < 80 ? 0.5f : 5.f);
+    s.confidence.push_back(0.f);
+  }
+  auto rankingWith = [&](auto sigma_of_error) {
+    s.sigma.clear();
+    for (float e : s.abs_error) s.sigma.push_back(sigma_of_error(e));
+    return bdis::calibrateVariance(s).ranking_ratio;
+  };
+  // Sigma that grows with the error ranks as the oracle does.
+  EXPECT_DOUBLE_EQ(rankingWith([](float e) { return e; }), 1.0);
+  // Sigma that shrinks with it puts the outliers first: the worst ranking,
+  // the same as one sigma for all (ties rank as badly as they can).
+  const double reversed = rankingWith([](float e) { return 1.f / e; });
+  EXPECT_GT(reversed, 3.0);
+  EXPECT_DOUBLE_EQ(rankingWith([](float) { return 1.f; }), reversed);
+  // As sparsify() ranks a confidence of -sigma.
+  std::vector<float> trust;
+  for (float e : s.abs_error) trust.push_back(-1.f / e);
+  EXPECT_DOUBLE_EQ(bdis::sparsifyBy(trust, s.abs_error).ratio(), reversed);
+  EXPECT_EQ(bdis::sparsifyBy({1.f}, s.abs_error).ratio(), 0.0);  // sizes that do not pair up
+}
+
 TEST(ErrorBorderStrips, CountsEstimatesOffTheInnerMedian) {
   // 10 rows of 200 px; black frame: columns 0-19 and 180-199. Disparity 10
   // everywhere inside, except a wrong strip of 8 px (at 30) next to the left
