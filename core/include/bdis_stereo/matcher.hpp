@@ -35,7 +35,8 @@ struct MatchResult {
 
 /// Which full-resolution maps compute() fills besides the disparity. A map
 /// left out is released (empty) and costs nothing to upsample, and without the
-/// confidence its cues are not computed either (they change no disparity): a
+/// confidence or the variance (whose outlier term reads the confidence) the
+/// confidence's cues are not computed either (they change no disparity): a
 /// node computes only what is subscribed.
 struct MatchOutputs {
   /// Filled when false too while MatcherParams::min_confidence > 0: it then

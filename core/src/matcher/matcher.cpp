@@ -19,6 +19,7 @@
 #include "image_border_cue.hpp"
 #include "left_right_check.hpp"
 #include "neighbourhood_cue.hpp"
+#include "outlier_variance.hpp"
 #include "patch_grid.hpp"
 #include "pyramid.hpp"
 #include "residual_fit_cue.hpp"
@@ -159,9 +160,11 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   const int levels = detail::levelsThatFit(left.cols, left.rows, P.patch_size, P.coarsest_level + 1);
   const int finest = std::min(P.finestLevelFor(left.cols), levels - 1);
   const bool with_check = P.lr_check_tolerance > 0.f;
-  // The confidence is computed when asked for or when it decides which
-  // estimates are published.
-  const bool with_confidence = outputs.confidence || P.min_confidence > 0.f;
+  // The confidence is published when asked for or when it decides which
+  // estimates are published; it is computed for the variance's outlier term too.
+  const bool with_variance = P.compute_variance && outputs.variance;
+  const bool publish_confidence = outputs.confidence || P.min_confidence > 0.f;
+  const bool with_confidence = publish_confidence || with_variance;
 
   // 1. Pyramid: grey levels, gradients and validity of the pair.
   m.pyramid.build(left, right, levels, finest, P.saturation_grey, /*probe_block_grid=*/with_confidence);
@@ -196,12 +199,18 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   // 6. The confidence's cues, only when the confidence is computed: they
   //    change no disparity.
   if (with_confidence) m.applyConfidenceCues(finest, out);
-  // 7. Upsampling to the input resolution; then the estimates less
+  // 7. The variance's outlier term: the outlier's squared error times the
+  //    probability the published confidence gives the estimate of being one.
+  if (with_variance) {
+    detail::addOutlierVariance(out.disparity, out.confidence, detail::kOutlierVariancePx2 * level_px * level_px,
+                               detail::kOutlierHalfConfidence, out.variance);
+  }
+  // 8. Upsampling to the input resolution; then the estimates less
   //    confident than min_confidence are dropped, at the resolution the
   //    confidence is published at (and the variance with them).
-  m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, with_confidence, result);
+  m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, publish_confidence, result);
   if (P.min_confidence > 0.f) dropLessConfident(P.min_confidence, result.disparity, result.confidence);
-  if (P.compute_variance && outputs.variance) {
+  if (with_variance) {
     m.upsampler.upsampleVariance(out, finest, result);
   } else {
     result.variance.release();
