@@ -8,6 +8,9 @@
 // likely outliers, not only the loosely pinned inliers.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
+
 #include <opencv2/core.hpp>
 
 namespace bdis {
@@ -16,7 +19,9 @@ namespace detail {
 /// Probability that an estimate of confidence `c` is an outlier:
 /// 1 / (1 + sqrt(c / c_half)), 1/2 at `c_half`, falling slowly over the
 /// decades the confidence spans.
-float outlierProbability(float confidence, float c_half);
+inline float outlierProbability(float confidence, float c_half) {
+  return 1.f / (1.f + std::sqrt(std::max(confidence, 0.f) * (1.f / c_half)));
+}
 
 /// Adds `outlier_variance` (px^2 at the variance's scale) times
 /// outlierProbability() of each estimate's confidence to its variance;
