@@ -267,6 +267,38 @@ std::vector<ThresholdRow> confidenceThresholds(const EstimateSamples& samples, c
   return rows;
 }
 
+Reliability reliability(const EstimateSamples& samples, const std::vector<float>& edges) {
+  Reliability r;
+  if (edges.size() < 2 || samples.confidence.size() != samples.abs_error.size()) return r;
+  const size_t bins = edges.size() - 1;
+  std::vector<double> count(bins, 0.0), confidence_sum(bins, 0.0), within(bins, 0.0);
+  double total = 0;
+  for (size_t i = 0; i < samples.size(); ++i) {
+    const float c = samples.confidence[i];
+    if (!(c >= edges.front() && c <= edges.back())) continue;
+    // The bin whose lower edge is the last one at or below c; c == back() in the last.
+    const auto upper = std::upper_bound(edges.begin(), edges.end(), c);
+    const size_t b = std::min(static_cast<size_t>(upper - edges.begin()) - 1, bins - 1);
+    count[b] += 1;
+    confidence_sum[b] += c;
+    within[b] += samples.abs_error[i] <= 2.f ? 1 : 0;
+    total += 1;
+  }
+  for (size_t b = 0; b < bins; ++b) {
+    ReliabilityBin bin;
+    bin.lower = edges[b];
+    bin.upper = edges[b + 1];
+    if (count[b] > 0) {
+      bin.share = count[b] / total;
+      bin.mean_confidence = confidence_sum[b] / count[b];
+      bin.within2 = within[b] / count[b];
+      r.expected_error += bin.share * std::fabs(bin.mean_confidence - bin.within2);
+    }
+    r.bins.push_back(bin);
+  }
+  return r;
+}
+
 VarianceCalibration calibrateVariance(const EstimateSamples& samples) {
   VarianceCalibration c;
   if (samples.sigma.size() != samples.abs_error.size() || samples.sigma.empty()) return c;

@@ -92,6 +92,23 @@ struct ThresholdRow {
 };
 std::vector<ThresholdRow> confidenceThresholds(const EstimateSamples& samples, const std::vector<float>& thresholds);
 
+/// The confidence as the probability of being within 2 px, as the matcher's
+/// calibrated confidence claims to be: per bin of confidence [lower, upper)
+/// (the last bin holds its upper edge too), the share of the estimates in
+/// it, their mean confidence and the share of them within 2 px; and the
+/// expected calibration error, the bins' |mean confidence - share within
+/// 2 px| weighted by their shares (0 for a confidence that says what it means).
+struct ReliabilityBin {
+  float lower = 0, upper = 0;
+  double share = 0, mean_confidence = 0, within2 = 0;
+};
+struct Reliability {
+  std::vector<ReliabilityBin> bins;
+  double expected_error = 0;
+};
+/// `edges` increasing, at least two; estimates outside [front, back] are left out.
+Reliability reliability(const EstimateSamples& samples, const std::vector<float>& edges);
+
 /// How well a variance describes the errors, as a standard deviation should:
 /// the shares of |error| within 1 and 2 sigma (a Gaussian: 68 % and 95 %),
 /// the median of |error| / sigma (a Gaussian: 0.674), and how well sigma

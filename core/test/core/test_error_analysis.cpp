@@ -127,6 +127,43 @@ TEST(ErrorConfidence, ThresholdsLeaveDensityAndBad2) {
   EXPECT_DOUBLE_EQ(rows[3].density, 0.0);
 }
 
+TEST(ErrorConfidence, ReliabilityComparesEachBinsConfidenceWithItsShareWithinTwoPx) {
+  // 40 estimates at 0.55, 22 of them within 2 px (as claimed); 60 at 0.99,
+  // all within 2 px (0.01 more than claimed); one at exactly 1 (the last bin
+  // holds its upper edge) and one above the edges (left out).
+  std::vector<float> error, confidence;
+  for (int i = 0; i < 40; ++i) {
+    error.push_back(i < 22 ? 1.f : 5.f);
+    confidence.push_back(0.55f);
+  }
+  for (int i = 0; i < 60; ++i) {
+    error.push_back(0.5f);
+    confidence.push_back(0.99f);
+  }
+  error.push_back(3.f);
+  confidence.push_back(1.f);
+  error.push_back(0.f);
+  confidence.push_back(1.5f);
+  const bdis::Reliability r = bdis::reliability(samples(error, confidence), {0.f, 0.5f, 0.6f, 0.98f, 1.f});
+  ASSERT_EQ(r.bins.size(), 4u);
+  EXPECT_DOUBLE_EQ(r.bins[0].share, 0.0);
+  EXPECT_NEAR(r.bins[1].share, 40.0 / 101, 1e-12);
+  EXPECT_NEAR(r.bins[1].mean_confidence, 0.55, 1e-6);
+  EXPECT_DOUBLE_EQ(r.bins[1].within2, 22.0 / 40);
+  EXPECT_DOUBLE_EQ(r.bins[2].share, 0.0);
+  EXPECT_FLOAT_EQ(r.bins[3].lower, 0.98f);
+  EXPECT_NEAR(r.bins[3].share, 61.0 / 101, 1e-12);
+  EXPECT_NEAR(r.bins[3].mean_confidence, (60 * 0.99 + 1.0) / 61, 1e-6);
+  EXPECT_DOUBLE_EQ(r.bins[3].within2, 60.0 / 61);
+  const double expected = 61.0 / 101 * std::fabs((60 * 0.99 + 1.0) / 61 - 60.0 / 61);
+  EXPECT_NEAR(r.expected_error, expected, 1e-6);
+  // A confidence that claims 0.99 for estimates that are all wrong is far off.
+  const bdis::Reliability wrong = bdis::reliability(samples({5.f, 6.f, 7.f}, {0.99f, 0.99f, 0.99f}), {0.f, 1.f});
+  EXPECT_NEAR(wrong.expected_error, 0.99, 1e-6);
+  // Fewer than two edges: no bins.
+  EXPECT_TRUE(bdis::reliability(samples({1.f}, {0.5f}), {0.f}).bins.empty());
+}
+
 TEST(ErrorVariance, GaussianErrorsWithTheirSigmaAreCalibrated) {
   std::mt19937 rng(3);
   EstimateSamples s;
