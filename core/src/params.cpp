@@ -103,6 +103,9 @@ const std::vector<ParamField>& paramFields() {
             "patch overlap of the left-right check's search from the right image (finest level)"),
       field("compute_variance", &MatcherParams::compute_variance, 0, 1,
             "also compute the per-pixel disparity variance (px^2), published as variance"),
+      field("calibrated_confidence", &MatcherParams::calibrated_confidence, 0, 1,
+            "publish the confidence as the probability of being within 2 px (fitted on generated scenes); "
+            "false = the cues' raw product"),
       field("min_confidence", &MatcherParams::min_confidence, 0.0, 1.0,
             "estimates with a lower confidence are dropped (disparity, depth, points); 0 = none"),
       field("refinement_iterations", &MatcherParams::refinement_iterations, 0, 20,

@@ -40,7 +40,10 @@ Besides the summary table it prints, per sequence and method:
   - for methods with a confidence (bdis; predictions with conf_ files): its
     sparsification area against the oracle's, bad2 of the 25 % and 50 % most
     confident estimates, bad2 per confidence decile, and the density and bad2
-    left by confidence thresholds;
+    left by confidence thresholds; for a calibrated confidence (the default;
+    --set calibrated_confidence=false: the cues' raw product, thresholds in
+    decades), per confidence bin the share of estimates within 2 px against
+    their mean confidence, and the expected calibration error;
   - with compute_variance: the share of errors within 1 and 2 sigma, and
     the sparsification ratio of sigma as a ranking of the errors;
   - for sequences without gt_disparity/: density over the valid pixels and
@@ -195,10 +198,23 @@ struct Row {
   BorderStripScore border;
 };
 
-// Decades: the confidence is a product of agreement factors and spans many
-// of them (on the colon sequences half of the estimates lie below about 1e-3,
-// a tenth below about 1e-7), and the trade of density against bad2 runs across all.
-const std::vector<float> kConfidenceThresholds = {0.f, 1e-8f, 1e-7f, 1e-6f, 1e-5f, 1e-4f, 1e-3f, 1e-2f, 1e-1f};
+// The calibrated confidence is a probability of being within 2 px, and most
+// estimates lie near 1: the steps are finer at the top.
+const std::vector<float> kProbabilityThresholds = {0.f, 0.5f, 0.7f, 0.8f, 0.9f, 0.95f, 0.98f, 0.99f};
+// Decades for the raw confidence (calibrated_confidence false): a product of
+// agreement factors, it spans many of them (on the colon sequences half of
+// the estimates lie below about 1e-3, a tenth below about 1e-7).
+const std::vector<float> kDecadeThresholds = {0.f, 1e-8f, 1e-7f, 1e-6f, 1e-5f, 1e-4f, 1e-3f, 1e-2f, 1e-1f};
+// The bins of the reliability table, finer where most estimates lie.
+const std::vector<float> kReliabilityEdges = {0.f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f, 0.95f, 0.98f, 1.f};
+
+/// How the confidences of this run read: as probabilities (the matcher's
+/// calibrated confidence, and predictions recorded with it) or as the raw
+/// product of cues; --set calibrated_confidence=false selects the latter.
+struct ConfidenceScale {
+  bool probability = true;
+  const std::vector<float>& thresholds() const { return probability ? kProbabilityThresholds : kDecadeThresholds; }
+};
 
 std::vector<std::string> split(const std::string& s, char sep) {
   std::vector<std::string> out;
@@ -385,7 +401,7 @@ void printRegions(const std::vector<Row>& rows) {
   }
 }
 
-void printConfidence(const std::vector<Row>& rows) {
+void printConfidence(const std::vector<Row>& rows, const ConfidenceScale& scale) {
   bool any = false;
   for (const Row& r : rows) any = any || (r.has_ground_truth && r.has_confidence);
   if (!any) return;
@@ -404,13 +420,32 @@ void printConfidence(const std::vector<Row>& rows) {
   }
   std::printf("\nwhat a confidence threshold leaves: density / bad2 of the estimates with confidence >= t\n");
   std::printf("%-28s %-11s", "sequence", "method");
-  for (float t : kConfidenceThresholds) std::printf("     t=%-6g ", t);
+  for (float t : scale.thresholds()) std::printf("     t=%-6g ", t);
   std::printf("\n");
   for (const Row& r : rows) {
     if (!r.has_ground_truth || !r.has_confidence) continue;
     std::printf("%-28s %-11s", r.sequence.c_str(), r.method.c_str());
-    for (const ThresholdRow& t : confidenceThresholds(r.samples, kConfidenceThresholds)) {
+    for (const ThresholdRow& t : confidenceThresholds(r.samples, scale.thresholds())) {
       std::printf("  %5.3f/%5.1f%%", t.density, 100 * t.bad2);
+    }
+    std::printf("\n");
+  }
+  if (!scale.probability) return;
+  std::printf("\nthe confidence as the probability of being within 2 px: per confidence bin, share of the\n"
+              "estimates, mean confidence / share within 2 px; expected calibration error (0 = says what it means)\n");
+  std::printf("%-28s %-11s %6s ", "sequence", "method", "error");
+  for (size_t b = 0; b + 1 < kReliabilityEdges.size(); ++b) {
+    char bin[32];
+    std::snprintf(bin, sizeof bin, "%g-%g", kReliabilityEdges[b], kReliabilityEdges[b + 1]);
+    std::printf(" %-17s", bin);
+  }
+  std::printf("\n");
+  for (const Row& r : rows) {
+    if (!r.has_ground_truth || !r.has_confidence) continue;
+    const Reliability rel = reliability(r.samples, kReliabilityEdges);
+    std::printf("%-28s %-11s %6.3f ", r.sequence.c_str(), r.method.c_str(), rel.expected_error);
+    for (const ReliabilityBin& b : rel.bins) {
+      std::printf(" %4.1f%% %.2f/%.2f ", 100 * b.share, b.mean_confidence, b.within2);
     }
     std::printf("\n");
   }
@@ -462,7 +497,8 @@ void printInputs(const std::vector<Row>& rows) {
   }
 }
 
-void writeJson(const std::string& path, const MatcherParams& params, const std::vector<Row>& rows) {
+void writeJson(const std::string& path, const MatcherParams& params, const ConfidenceScale& scale,
+               const std::vector<Row>& rows) {
   std::ofstream js(path);
   if (!js) throw std::runtime_error("cannot write " + path);
   js << std::setprecision(6) << "{\n  \"params\": {";
@@ -494,12 +530,24 @@ void writeJson(const std::string& path, const MatcherParams& params, const std::
            << s.bad2_top50 << ", \"monotone\": " << (s.monotone() ? "true" : "false") << ", \"decile_bad2\": [";
         for (size_t d = 0; d < s.decile_bad2.size(); ++d) js << (d ? ", " : "") << s.decile_bad2[d];
         js << "], \"thresholds\": [";
-        const std::vector<ThresholdRow> t = confidenceThresholds(r.samples, kConfidenceThresholds);
+        const std::vector<ThresholdRow> t = confidenceThresholds(r.samples, scale.thresholds());
         for (size_t k = 0; k < t.size(); ++k) {
           js << (k ? ", " : "") << "{\"threshold\": " << t[k].threshold << ", \"density\": " << t[k].density
              << ", \"bad2\": " << t[k].bad2 << "}";
         }
-        js << "]}";
+        js << "]";
+        if (scale.probability) {
+          const Reliability rel = reliability(r.samples, kReliabilityEdges);
+          js << ", \"calibration_error\": " << rel.expected_error << ", \"reliability\": [";
+          for (size_t k = 0; k < rel.bins.size(); ++k) {
+            const ReliabilityBin& b = rel.bins[k];
+            js << (k ? ", " : "") << "{\"lower\": " << b.lower << ", \"upper\": " << b.upper << ", \"share\": "
+               << b.share << ", \"mean_confidence\": " << b.mean_confidence << ", \"within_2px\": " << b.within2
+               << "}";
+          }
+          js << "]";
+        }
+        js << "}";
       }
       if (r.has_variance) {
         const VarianceCalibration c = calibrateVariance(r.samples);
@@ -548,11 +596,12 @@ int run(int argc, char** argv) {
   }
   printSummary(rows);
   printRegions(rows);
-  printConfidence(rows);
+  const ConfidenceScale scale{params.calibrated_confidence};
+  printConfidence(rows, scale);
   printVariance(rows);
   printWithoutGroundTruth(rows);
   printInputs(rows);
-  if (!o.json_path.empty()) writeJson(o.json_path, params, rows);
+  if (!o.json_path.empty()) writeJson(o.json_path, params, scale, rows);
   return 0;
 }
 

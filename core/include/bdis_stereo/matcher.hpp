@@ -21,14 +21,16 @@ constexpr int kMinImageSide = 32;
 /// Per-pixel outputs at the full input resolution.
 struct MatchResult {
   cv::Mat disparity;   ///< CV_32FC1, d >= 0 px, kNoDisparity where there is no estimate
-  /// CV_32FC1 in [0, 1]: mean over the covering patches of their posterior
-  /// above chance (a flat cost gives 0, a single sharp minimum 1), lowered
-  /// where the estimate is in doubt for reasons the posteriors cannot see
-  /// (the patches or the two views disagree, the surface is too slanted for
-  /// a patch, the neighbourhood has few estimates or the estimate stands
-  /// apart from them: docs/method.md, "Confidence"); 0 where there is no
-  /// estimate. A higher confidence has
-  /// fewer outliers: threshold it to trade density for fewer wrong depths.
+  /// CV_32FC1 in [0, 1], 0 where there is no estimate: the probability that
+  /// the estimate is within 2 px of the true disparity (calibrated on
+  /// generated scenes: docs/method.md, "Calibration"). It maps a product of
+  /// cues: the covering patches' mean posterior above chance, lowered where
+  /// the estimate is in doubt for reasons the posteriors cannot see (the
+  /// patches or the two views disagree, the surface is too slanted for a
+  /// patch, the neighbourhood has few estimates or the estimate stands apart
+  /// from them: "Confidence"); with MatcherParams::calibrated_confidence
+  /// false, that product itself. A higher confidence has fewer outliers:
+  /// threshold it to trade density for fewer wrong depths.
   cv::Mat confidence;
   cv::Mat variance;    ///< CV_32FC1 px^2 when compute_variance, NaN where no estimate; else empty
 };

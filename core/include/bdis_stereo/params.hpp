@@ -70,10 +70,16 @@ struct MatcherParams {
   float lr_check_tolerance = 3.f;  ///< left-right check, full-resolution px; 0 = off
   float lr_check_overlap = 0.4f;   ///< patch overlap of the check's search from the right image
   bool compute_variance = false;   ///< also output per-pixel disparity variance (px^2)
+  /// The published confidence as the probability that the estimate is
+  /// within 2 px (the cues' product through a table fitted on generated
+  /// scenes); false: the product itself, which spans many decades.
+  bool calibrated_confidence = true;
   /// Estimates whose published confidence is lower are dropped from the
   /// disparity (and so from depth and points); 0 = none. The confidence is
-  /// then computed even when it is not asked for. The README's table maps a
-  /// threshold to the density and bad2 to expect.
+  /// then computed even when it is not asked for. With the calibrated
+  /// confidence, 0.9 keeps the estimates of which at most about one in ten
+  /// is off by over 2 px; the README's table maps a threshold to the
+  /// density and bad2 to expect.
   float min_confidence = 0.f;
   // Variational refinement of the finest level (DIS's last stage, along x):
   // per pixel, the disparity its own grey levels and its neighbours agree on.

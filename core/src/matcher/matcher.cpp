@@ -14,6 +14,7 @@
 #include "band_schedule.hpp"
 #include "block_grid_cue.hpp"
 #include "confidence.hpp"
+#include "confidence_calibration.hpp"
 #include "consensus_cue.hpp"
 #include "edge_distance_cue.hpp"
 #include "image_border_cue.hpp"
@@ -205,7 +206,9 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
     detail::addOutlierVariance(out.disparity, out.confidence, detail::kOutlierVariancePx2 * level_px * level_px,
                                detail::kOutlierHalfConfidence, out.variance);
   }
-  // 8. Upsampling to the input resolution; then the estimates less
+  // 8. The published confidence as the probability of being within 2 px.
+  if (publish_confidence && P.calibrated_confidence) detail::calibrateConfidence(out.confidence);
+  // 9. Upsampling to the input resolution; then the estimates less
   //    confident than min_confidence are dropped, at the resolution the
   //    confidence is published at (and the variance with them).
   m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, publish_confidence, result);

@@ -111,9 +111,10 @@ TEST(BlockGrid, ThePyramidGathersTheStepsOnlyWhenAsked) {
   }
 }
 
-/// The median confidence of the estimates of a pair at disparity `shift`
-/// (weak texture), both views cut from one image and then, if `quality` > 0,
-/// JPEG-coded each on its own (so their grids align at multiples of 8).
+/// The median confidence (the cues' product, which the cue scales) of the
+/// estimates of a pair at disparity `shift` (weak texture), both views cut
+/// from one image and then, if `quality` > 0, JPEG-coded each on its own (so
+/// their grids align at multiples of 8).
 double medianConfidence(int shift, int quality) {
   const cv::Mat texture = weakTexture(320 + shift, 240, 9);
   cv::Mat left = texture.colRange(0, 320).clone(), right = texture.colRange(shift, 320 + shift).clone();
@@ -121,7 +122,9 @@ double medianConfidence(int shift, int quality) {
     left = jpegRoundTrip(left, quality);
     right = jpegRoundTrip(right, quality);
   }
-  bdis::Matcher matcher;
+  bdis::MatcherParams params;
+  params.calibrated_confidence = false;
+  bdis::Matcher matcher(params);
   bdis::MatchResult result;
   matcher.compute(left, right, result);
   std::vector<float> confidence;

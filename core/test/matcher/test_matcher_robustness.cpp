@@ -47,6 +47,15 @@ namespace {
 
 constexpr double kLowConfidence = 0.1;
 
+/// The defaults with the confidence left as the cues' product, the scale
+/// kLowConfidence is set on (the published one is a probability of being
+/// within 2 px: tested in test_confidence_calibration and on the colon).
+MatcherParams cuesProductParams() {
+  MatcherParams params;
+  params.calibrated_confidence = false;
+  return params;
+}
+
 struct FlatScene {
   StereoPair pair;
   cv::Rect flat;
@@ -113,7 +122,7 @@ void printFlat(const char* what, const FlatRegionCounts& c) {
 }
 
 TEST(MatcherRobustness, FlatRegionHasNoConfidentWrongEstimate) {
-  const MatcherParams params;
+  const MatcherParams params = cuesProductParams();
   const double d = 7.3;
   const FlatScene scene = flatRegionScene(d);
   const MatchResult r = run(params, scene.pair.left, scene.pair.right);
@@ -182,7 +191,7 @@ TEST(MatcherRobustness, FlatRegionHasNoConfidentWrongEstimate) {
 // gradient-energy texture test (specular density 0.584 -> 0.411); the slant
 // cue changes the confidence only.
 TEST(MatcherRobustness, FlatRegionBorderBandConfidentOutliersStayRare) {
-  const MatcherParams params;
+  const MatcherParams params = cuesProductParams();
   const int band = patchAtFullRes(params);
   for (double d : {3.4, 7.3, 12.6, 20.2}) {
     const FlatScene scene = flatRegionScene(d);
@@ -497,7 +506,7 @@ TEST(MatcherRobustness, NearlyFlatPairIsNeverConfident) {
   // one patch wide along the image border is excluded: there a window sample
   // outside the image gets zero likelihood, which lifts the others (raw
   // posterior 0.250 in the first version).
-  const MatcherParams params;
+  const MatcherParams params = cuesProductParams();
   cv::Mat left(kH, kW, CV_8UC1), right(kH, kW, CV_8UC1);
   cv::RNG rng(3);
   for (int y = 0; y < kH; ++y) {

@@ -48,7 +48,17 @@ const MatcherRun& bdisRun(const SceneConfig& config, const bdis::MatcherParams& 
   return run;
 }
 
-const MatcherRun& bdisRun(const std::string& name) { return bdisRun(variant(name)); }
+/// The defaults with the confidence left as the cues' product: the scale
+/// the region tests below set "confident" on (kConfident), which they ask
+/// of the cues. The published confidence, a probability of being within
+/// 2 px, is checked by PublishedConfidenceSaysTheShareWithinTwoPx.
+bdis::MatcherParams cuesProductParams() {
+  bdis::MatcherParams params;
+  params.calibrated_confidence = false;
+  return params;
+}
+
+const MatcherRun& bdisRun(const std::string& name) { return bdisRun(variant(name), cuesProductParams()); }
 
 struct Bar {
   const char* variant;
@@ -309,6 +319,34 @@ TEST(SyntheticBehaviour, ConfidenceRanksTheErrors) {
     EXPECT_LE(s.bad2_top50, bar.max_top50) << name;
     EXPECT_LE(s.ratio(), bar.max_ratio) << name;
     EXPECT_LE(s.area, bar.max_area) << name;
+  }
+}
+
+TEST(SyntheticBehaviour, PublishedConfidenceSaysTheShareWithinTwoPx) {
+  // The calibration was fitted on other seeds of these variants (7 and 11);
+  // these frames are seed 1. Per variant, the expected calibration error
+  // (per confidence bin, |mean confidence - share within 2 px|, weighted by
+  // the bin's share), and the most a bin from 0.8 up (where a node sets its
+  // threshold) holding 1 % of the estimates or more claims over what it has.
+  // Measured: error 0.003 (diffuse, specular, textureless) to 0.048 (tube,
+  // whose bins below 0.95 hold more right estimates than they claim); most
+  // claimed over 0.05 (dark_tube's 0.95-0.98 bin: 0.97 / 0.92), the others
+  // 0.03 or less. Below 0.5 compressed_dark claims 0.46 where 0.35 are
+  // right: the estimates a threshold drops anyway.
+  const std::vector<float> edges = {0.f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f, 0.95f, 0.98f, 1.f};
+  for (const char* name : {"diffuse", "specular", "textureless", "instrument", "dark_periphery", "tube", "dark_tube",
+                           "compressed_dark"}) {
+    const bdis::Reliability r = bdis::reliability(samplesOf(bdisRun(variant(name))), edges);
+    double over_claim = -1;
+    std::printf("  %-15s expected calibration error %.3f; share, mean confidence / within 2 px:", name,
+                r.expected_error);
+    for (const bdis::ReliabilityBin& b : r.bins) {
+      std::printf(" %.1f%% %.2f/%.2f", 100 * b.share, b.mean_confidence, b.within2);
+      if (b.lower >= 0.8f && b.share >= 0.01) over_claim = std::max(over_claim, b.mean_confidence - b.within2);
+    }
+    std::printf("; most claimed over from 0.8 up %.3f\n", over_claim);
+    EXPECT_LE(r.expected_error, 0.06) << name;
+    EXPECT_LE(over_claim, 0.07) << name;
   }
 }
 
