@@ -15,14 +15,16 @@ namespace {
 // such pixels and valid ones. Mid-grey tells the two kinds apart.
 constexpr float kBrightInvalidGrey = 128.f;
 
-/// The two rows the box sums count: 1 where a pixel has an estimate, and 1
-/// where it could have had one (valid, or invalid but bright: clipped).
+/// The two rows the box sums count: `weight` where a pixel has an estimate,
+/// and `weight` where it could have had one (valid, or invalid but bright:
+/// clipped).
 BDIS_ROW_LOOP
 void indicatorRows(int w, const float* __restrict disparity, const uchar* __restrict valid,
-                   const float* __restrict grey, float* __restrict estimates, float* __restrict valid_pixels) {
+                   const float* __restrict grey, float weight, float* __restrict estimates,
+                   float* __restrict valid_pixels) {
   for (int x = 0; x < w; ++x) {
-    estimates[x] = disparity[x] >= 0.f ? 1.f : 0.f;
-    valid_pixels[x] = (valid[x] != 0) | (grey[x] >= kBrightInvalidGrey) ? 1.f : 0.f;  // | : no branch
+    estimates[x] = disparity[x] >= 0.f ? weight : 0.f;
+    valid_pixels[x] = (valid[x] != 0) | (grey[x] >= kBrightInvalidGrey) ? weight : 0.f;  // | : no branch
   }
 }
 
@@ -38,22 +40,21 @@ void supportFactorRow(int bw, const float* __restrict estimates, const float* __
   }
 }
 
-/// Per 2 x 2 block of rows y0 and y1 (y1 < 0 for the last block row of an
-/// odd height, which has one), the count of its estimates and of its
-/// countable pixels; bw blocks (an odd width's last block has one column).
-void blockIndicatorRow(int w, int bw, int y0, int y1, const cv::Mat1f& disparity, const cv::Mat1b& valid,
-                       const cv::Mat1f& grey, std::vector<float>& scratch, float* estimates, float* valid_pixels) {
+/// Per 2 x 2 block of rows y0 and y1 (y1 may be y0 again, with weight 0:
+/// the last block row of an odd height), the count of its estimates and of
+/// its countable pixels; bw blocks (an odd width's last block has one column).
+void blockIndicatorRow(int w, int bw, int y0, int y1, float y1_weight, const cv::Mat1f& disparity,
+                       const cv::Mat1b& valid, const cv::Mat1f& grey, std::vector<float>& scratch, float* estimates,
+                       float* valid_pixels) {
   scratch.resize(static_cast<size_t>(8 * bw));
   float* e0 = scratch.data();
   float* p0 = e0 + 2 * bw;
   float* e1 = p0 + 2 * bw;
   float* p1 = e1 + 2 * bw;
-  indicatorRows(w, disparity[y0], valid[y0], grey[y0], e0, p0);
-  if (y1 >= 0) {
-    indicatorRows(w, disparity[y1], valid[y1], grey[y1], e1, p1);
-    addRow(w, e1, e0);
-    addRow(w, p1, p0);
-  }
+  indicatorRows(w, disparity[y0], valid[y0], grey[y0], 1.f, e0, p0);
+  indicatorRows(w, disparity[y1], valid[y1], grey[y1], y1_weight, e1, p1);
+  addRow(w, e1, e0);
+  addRow(w, p1, p0);
   columnPairsToBlocks(w, bw, e0, estimates);
   columnPairsToBlocks(w, bw, p0, valid_pixels);
 }
@@ -71,8 +72,9 @@ void SupportCue::apply(const cv::Mat1f& disparity, const cv::Mat1b& valid, const
   const float inv_halving_sq = 1.f / (halving_share * halving_share);
   sums_.sweep(
       [&](int by, float* estimates, float* valid_pixels) {
-        const int y1 = 2 * by + 1 < h ? 2 * by + 1 : -1;
-        blockIndicatorRow(w, bw, 2 * by, y1, disparity, valid, grey, scratch_, estimates, valid_pixels);
+        const int y1 = std::min(2 * by + 1, h - 1);
+        blockIndicatorRow(w, bw, 2 * by, y1, y1 > 2 * by ? 1.f : 0.f, disparity, valid, grey, scratch_, estimates,
+                          valid_pixels);
       },
       [&](int by, const float* n_estimates, const float* n_valid) {
         supportFactorRow(bw, n_estimates, n_valid, inv_halving_sq, factor_.data());
