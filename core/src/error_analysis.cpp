@@ -284,6 +284,10 @@ Reliability reliability(const EstimateSamples& samples, const std::vector<float>
     within[b] += samples.abs_error[i] <= 2.f ? 1 : 0;
     total += 1;
   }
+  if (total > 0) {
+    r.mean_confidence = std::accumulate(confidence_sum.begin(), confidence_sum.end(), 0.0) / total;
+    r.within2 = std::accumulate(within.begin(), within.end(), 0.0) / total;
+  }
   for (size_t b = 0; b < bins; ++b) {
     ReliabilityBin bin;
     bin.lower = edges[b];

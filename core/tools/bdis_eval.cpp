@@ -431,9 +431,10 @@ void printConfidence(const std::vector<Row>& rows, const ConfidenceScale& scale)
     std::printf("\n");
   }
   if (!scale.probability) return;
-  std::printf("\nthe confidence as the probability of being within 2 px: per confidence bin, share of the\n"
-              "estimates, mean confidence / share within 2 px; expected calibration error (0 = says what it means)\n");
-  std::printf("%-28s %-11s %6s ", "sequence", "method", "error");
+  std::printf("\nthe confidence as the probability of being within 2 px: expected calibration error (0 = says\n"
+              "what it means); bad2 predicted (1 - mean confidence) / found; per confidence bin, share of\n"
+              "the estimates, mean confidence / share within 2 px\n");
+  std::printf("%-28s %-11s %6s %13s ", "sequence", "method", "error", "bad2 pred/fnd");
   for (size_t b = 0; b + 1 < kReliabilityEdges.size(); ++b) {
     char bin[32];
     std::snprintf(bin, sizeof bin, "%g-%g", kReliabilityEdges[b], kReliabilityEdges[b + 1]);
@@ -443,7 +444,8 @@ void printConfidence(const std::vector<Row>& rows, const ConfidenceScale& scale)
   for (const Row& r : rows) {
     if (!r.has_ground_truth || !r.has_confidence) continue;
     const Reliability rel = reliability(r.samples, kReliabilityEdges);
-    std::printf("%-28s %-11s %6.3f ", r.sequence.c_str(), r.method.c_str(), rel.expected_error);
+    std::printf("%-28s %-11s %6.3f %5.1f%%/%5.1f%% ", r.sequence.c_str(), r.method.c_str(), rel.expected_error,
+                100 * (1 - rel.mean_confidence), 100 * (1 - rel.within2));
     for (const ReliabilityBin& b : rel.bins) {
       std::printf(" %4.1f%% %.2f/%.2f ", 100 * b.share, b.mean_confidence, b.within2);
     }
@@ -538,7 +540,8 @@ void writeJson(const std::string& path, const MatcherParams& params, const Confi
         js << "]";
         if (scale.probability) {
           const Reliability rel = reliability(r.samples, kReliabilityEdges);
-          js << ", \"calibration_error\": " << rel.expected_error << ", \"reliability\": [";
+          js << ", \"calibration_error\": " << rel.expected_error << ", \"predicted_bad2\": " << 1 - rel.mean_confidence
+             << ", \"reliability\": [";
           for (size_t k = 0; k < rel.bins.size(); ++k) {
             const ReliabilityBin& b = rel.bins[k];
             js << (k ? ", " : "") << "{\"lower\": " << b.lower << ", \"upper\": " << b.upper << ", \"share\": "

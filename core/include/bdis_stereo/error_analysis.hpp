@@ -98,6 +98,8 @@ std::vector<ThresholdRow> confidenceThresholds(const EstimateSamples& samples, c
 /// it, their mean confidence and the share of them within 2 px; and the
 /// expected calibration error, the bins' |mean confidence - share within
 /// 2 px| weighted by their shares (0 for a confidence that says what it means).
+/// Over all the binned estimates too: 1 - their mean confidence is the share
+/// of wrong ones the confidence predicts, against 1 - within2 found.
 struct ReliabilityBin {
   float lower = 0, upper = 0;
   double share = 0, mean_confidence = 0, within2 = 0;
@@ -105,6 +107,7 @@ struct ReliabilityBin {
 struct Reliability {
   std::vector<ReliabilityBin> bins;
   double expected_error = 0;
+  double mean_confidence = 0, within2 = 0;  ///< over every binned estimate
 };
 /// `edges` increasing, at least two; estimates outside [front, back] are left out.
 Reliability reliability(const EstimateSamples& samples, const std::vector<float>& edges);

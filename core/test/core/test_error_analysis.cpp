@@ -157,6 +157,9 @@ TEST(ErrorConfidence, ReliabilityComparesEachBinsConfidenceWithItsShareWithinTwo
   EXPECT_DOUBLE_EQ(r.bins[3].within2, 60.0 / 61);
   const double expected = 61.0 / 101 * std::fabs((60 * 0.99 + 1.0) / 61 - 60.0 / 61);
   EXPECT_NEAR(r.expected_error, expected, 1e-6);
+  // Over all 101: the mean confidence and the share within 2 px.
+  EXPECT_NEAR(r.mean_confidence, (40 * 0.55 + 60 * 0.99 + 1.0) / 101, 1e-6);
+  EXPECT_DOUBLE_EQ(r.within2, 82.0 / 101);
   // A confidence that claims 0.99 for estimates that are all wrong is far off.
   const bdis::Reliability wrong = bdis::reliability(samples({5.f, 6.f, 7.f}, {0.99f, 0.99f, 0.99f}), {0.f, 1.f});
   EXPECT_NEAR(wrong.expected_error, 0.99, 1e-6);
