@@ -77,9 +77,9 @@ struct MatcherParams {
   /// Estimates whose published confidence is lower are dropped from the
   /// disparity (and so from depth and points); 0 = none. The confidence is
   /// then computed even when it is not asked for. With the calibrated
-  /// confidence, 0.9 keeps the estimates of which at most about one in ten
-  /// is off by over 2 px; the README's table maps a threshold to the
-  /// density and bad2 to expect.
+  /// confidence, 0.9 keeps the estimates each at least 90 % likely to be
+  /// within 2 px; the README's table maps a threshold to the density and
+  /// bad2 to expect.
   float min_confidence = 0.f;
   // Variational refinement of the finest level (DIS's last stage, along x):
   // per pixel, the disparity its own grey levels and its neighbours agree on.
