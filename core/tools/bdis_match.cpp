@@ -50,10 +50,12 @@ pixels are treated as outside the view.
 Outputs (16-bit single-channel PNG, or a float TIFF for the confidence):
   disparity   round(d * 256), 0 = no estimate (estimates never round to 0)
   confidence  round(c * 65535) for the confidence c in [0, 1], 0 = no estimate;
-              estimates are stored as at least 1. The confidence spans many
-              decades (c < 1/131070 is common), so the least confident tie in
-              a PNG: to rank or threshold them, write a 32-bit float TIFF
-              (C.tiff, --confidence-format tiff), the exact c, 0 = no estimate
+              estimates are stored as at least 1. The calibrated confidence
+              (the probability of being within 2 px) has most estimates near 1,
+              and with --set calibrated_confidence=false the cues' product
+              spans many decades (c < 1/131070 is common): to rank or threshold
+              them exactly, write a 32-bit float TIFF (C.tiff,
+              --confidence-format tiff), the exact c, 0 = no estimate
   variance    round(var * 256) for the disparity variance var in px^2, 0 = no
               estimate; estimates are stored as at least 1 and saturate at
               65535 (var >= 256 px^2)
