@@ -5,10 +5,13 @@
 # frames. The renders are cached (again only when bdis_synth changes).
 #
 # usage: scripts/eval_generated.sh [--variants "V ..."] [--seeds "S ..."] [--frames N]
-#                                  [--no-shared] [--] [bdis_eval options]
+#                                  [--size WxH] [--no-shared] [--] [bdis_eval options]
 #   --variants   bdis_synth variants (default: all but sample)
 #   --seeds      seeds, each variant rendered once per seed (default: 7 11)
 #   --frames     frames per render (default: 8)
+#   --size       frame size (default 640x480; the focal length scales with the
+#                width, so the scene is the same); other sizes are named
+#                VARIANT_sSEED_WxH
 #   --no-shared  only the generated scenes, not $BDIS_DATA_DIR's synthetic_colon_*
 #   the rest goes to bdis_eval (default: --methods bdis), e.g.
 #   scripts/eval_generated.sh -- --methods bdis,dis_fast --set patch_size=6
@@ -20,12 +23,13 @@ source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 BIN_DIR="$WS_DIR/devel/lib/bdis_stereo"
 CACHE_DIR="${BDIS_GENERATED_DIR:-$WS_DIR/generated}"
 
-variants="" seeds="7 11" frames=8 shared=1
+variants="" seeds="7 11" frames=8 size=640x480 shared=1
 while [ $# -gt 0 ]; do
   case "$1" in
     --variants) variants="${2:?--variants needs a list}"; shift 2 ;;
     --seeds) seeds="${2:?--seeds needs a list}"; shift 2 ;;
     --frames) frames="${2:?--frames needs a number}"; shift 2 ;;
+    --size) size="${2:?--size needs WxH}"; shift 2 ;;
     --no-shared) shared=0; shift ;;
     -h | --help) sed -n '2,/^[^#]/s/^# \{0,1\}//p' "$0"; exit 0 ;;
     --) shift; break ;;
@@ -47,17 +51,25 @@ if [ -z "$variants" ]; then
 fi
 
 # A render is reused while bdis_synth and the settings are the same.
+[[ "$size" =~ ^[0-9]+x[0-9]+$ ]] || { log "--size must be WxH, e.g. 1280x720"; exit 2; }
+width="${size%x*}" height="${size#*x}"
+suffix="" size_args=""
+if [ "$size" != 640x480 ]; then
+  suffix="_$size"
+  size_args="--width $width --height $height"
+fi
 synth_id="$(sha256sum "$BIN_DIR/bdis_synth" | cut -c1-16)"
 sequences=()
 for variant in $variants; do
   for seed in $seeds; do
-    dir="$CACHE_DIR/${variant}_s${seed}"
-    stamp="$synth_id --variant $variant --seed $seed --frames $frames"
+    dir="$CACHE_DIR/${variant}_s${seed}${suffix}"
+    stamp="$synth_id --variant $variant --seed $seed --frames $frames${size_args:+ $size_args}"
     if [ "$(cat "$dir/render.stamp" 2>/dev/null)" != "$stamp" ]; then
       log "rendering $variant, seed $seed, $frames frames"
       rm -rf "$dir"
       mkdir -p "$dir"
-      "$BIN_DIR/bdis_synth" --out "$dir" --variant "$variant" --seed "$seed" --frames "$frames" \
+      # shellcheck disable=SC2086  # size_args is empty or four words
+      "$BIN_DIR/bdis_synth" --out "$dir" --variant "$variant" --seed "$seed" --frames "$frames" $size_args \
         --overwrite >"$dir/render.log" 2>&1 || { cat "$dir/render.log" >&2; rm -rf "$dir"; log "bdis_synth failed"; exit 1; }
       echo "$stamp" >"$dir/render.stamp"
     fi
