@@ -1,19 +1,27 @@
 #!/usr/bin/env python3
-"""Fits the table that turns the confidence's product of cues into the
+"""Fits a table that turns the confidence's product of cues into the
 probability that an estimate is within 2 px of the true disparity.
 
-The table has one probability per power of two of the raw confidence, from
-2^-KNOTS to 2^0 (core/src/matcher/confidence_calibration.cpp). Each knot's
+A table has one probability per power of two of the raw confidence, from
+2^-KNOTS to 2^0; core/src/matcher/confidence_calibration.cpp holds one per
+finest level the matcher picks by the width (1 at 640 px, 2 at 1280, 3 at
+1920), each fitted on frames of that width. Each knot's
 probability is the share of estimates within 2 px among those whose raw
 confidence lies within half an octave of it, every sequence weighted alike,
 with a prior that keeps a knot with few estimates near its neighbours; the
 table is then made strictly increasing (pool adjacent violators).
 
-Fit on generated scenes only, never on the evaluation sequences:
+Fit on generated scenes only, never on the evaluation sequences. Level 1:
 
   scripts/eval_generated.sh --no-shared -- --methods bdis \\
       --set calibrated_confidence=false --dump-dir /tmp/raw_confidence
   /usr/bin/python3 scripts/fit_confidence_calibration.py /tmp/raw_confidence _ws/generated/*_s7 _ws/generated/*_s11
+
+Levels 2 and 3, with SIZE 1280x720 and 1920x1080 (4 frames a render):
+
+  scripts/eval_generated.sh --size SIZE --frames 4 --no-shared -- --methods bdis \\
+      --set calibrated_confidence=false --dump-dir /tmp/raw_SIZE
+  /usr/bin/python3 scripts/fit_confidence_calibration.py /tmp/raw_SIZE _ws/generated/*_s7_SIZE _ws/generated/*_s11_SIZE
 
 DUMP_DIR/<sequence>/bdis/ holds what bdis_eval --dump-dir writes (disparity
 PNGs, conf_*.tiff); each SEQUENCE_DIR its left/ and gt_disparity/. Prints the
@@ -118,11 +126,11 @@ def main():
     args = parser.parse_args()
     samples = [load(args.dump_dir, s) for s in args.sequences]
     table = fit(samples)
-    print(f'// {len(samples)} sequences: ' + ' '.join(name for name, _, _ in samples))
-    print(f'constexpr std::array<float, {KNOTS + 1}> kWithinTwoPxByOctave = {{')
+    print(f'    // {len(samples)} sequences: ' + ' '.join(name for name, _, _ in samples))
+    print('    calibrationOf({')
     for row in range(0, len(table), 6):
-        print('    ' + ' '.join(f'{v:.6f}f,' for v in table[row:row + 6]))
-    print('};')
+        print('        ' + ' '.join(f'{v:.6f}f,' for v in table[row:row + 6]))
+    print('    }),')
     for name, raw, good in samples:
         print(f'# {name:28s} within 2 px {good.mean():.3f}, '
               f'mean calibrated {calibrated(table, raw).mean():.3f}, '

@@ -12,13 +12,15 @@
 namespace bdis {
 namespace detail {
 
-/// The probability that an estimate whose cues multiply to `raw` is within
-/// 2 px; 0 for raw <= 0 (no estimate). Increasing in `raw`; constant below
-/// 2^-40 and from 1 up.
-float calibratedConfidence(float raw);
+/// The probability that an estimate whose cues multiply to `raw`, matched
+/// with `finest_level` as the finest level, is within 2 px of the input
+/// resolution; 0 for raw <= 0 (no estimate). Increasing in `raw`; constant
+/// below 2^-40 and from 1 up. Fitted for finest levels 1 to 3; level 0 takes
+/// level 1's table, levels above 3 level 3's.
+float calibratedConfidence(float raw, int finest_level);
 
 /// calibratedConfidence() of every pixel of `confidence`, in place.
-void calibrateConfidence(cv::Mat1f& confidence);
+void calibrateConfidence(cv::Mat1f& confidence, int finest_level);
 
 }  // namespace detail
 }  // namespace bdis

@@ -207,7 +207,7 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
                                detail::kOutlierHalfConfidence, out.variance);
   }
   // 8. The published confidence as the probability of being within 2 px.
-  if (publish_confidence && P.calibrated_confidence) detail::calibrateConfidence(out.confidence);
+  if (publish_confidence && P.calibrated_confidence) detail::calibrateConfidence(out.confidence, finest);
   // 9. Upsampling to the input resolution; then the estimates less
   //    confident than min_confidence are dropped, at the resolution the
   //    confidence is published at (and the variance with them).
