@@ -267,6 +267,19 @@ std::vector<ThresholdRow> confidenceThresholds(const EstimateSamples& samples, c
   return rows;
 }
 
+double Reliability::mostClaimedOver(float from_confidence, double min_share) const {
+  double most = -1;
+  for (const ReliabilityBin& b : bins) {
+    if (b.lower >= from_confidence && b.share >= min_share) most = std::max(most, b.mean_confidence - b.within2);
+  }
+  return most;
+}
+
+const std::vector<float>& reliabilityEdges() {
+  static const std::vector<float> edges = {0.f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f, 0.95f, 0.98f, 1.f};
+  return edges;
+}
+
 Reliability reliability(const EstimateSamples& samples, const std::vector<float>& edges) {
   Reliability r;
   if (edges.size() < 2 || samples.confidence.size() != samples.abs_error.size()) return r;

@@ -205,8 +205,6 @@ const std::vector<float> kProbabilityThresholds = {0.f, 0.5f, 0.7f, 0.8f, 0.9f, 
 // agreement factors, it spans many of them (on the colon sequences half of
 // the estimates lie below about 1e-3, a tenth below about 1e-7).
 const std::vector<float> kDecadeThresholds = {0.f, 1e-8f, 1e-7f, 1e-6f, 1e-5f, 1e-4f, 1e-3f, 1e-2f, 1e-1f};
-// The bins of the reliability table, finer where most estimates lie.
-const std::vector<float> kReliabilityEdges = {0.f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f, 0.95f, 0.98f, 1.f};
 
 /// How the confidences of this run read: as probabilities (the matcher's
 /// calibrated confidence, and predictions recorded with it) or as the raw
@@ -435,15 +433,15 @@ void printConfidence(const std::vector<Row>& rows, const ConfidenceScale& scale)
               "what it means); bad2 predicted (1 - mean confidence) / found; per confidence bin, share of\n"
               "the estimates, mean confidence / share within 2 px\n");
   std::printf("%-28s %-11s %6s %13s ", "sequence", "method", "error", "bad2 pred/fnd");
-  for (size_t b = 0; b + 1 < kReliabilityEdges.size(); ++b) {
+  for (size_t b = 0; b + 1 < reliabilityEdges().size(); ++b) {
     char bin[32];
-    std::snprintf(bin, sizeof bin, "%g-%g", kReliabilityEdges[b], kReliabilityEdges[b + 1]);
+    std::snprintf(bin, sizeof bin, "%g-%g", reliabilityEdges()[b], reliabilityEdges()[b + 1]);
     std::printf(" %-17s", bin);
   }
   std::printf("\n");
   for (const Row& r : rows) {
     if (!r.has_ground_truth || !r.has_confidence) continue;
-    const Reliability rel = reliability(r.samples, kReliabilityEdges);
+    const Reliability rel = reliability(r.samples, reliabilityEdges());
     std::printf("%-28s %-11s %6.3f %5.1f%%/%5.1f%% ", r.sequence.c_str(), r.method.c_str(), rel.expected_error,
                 100 * (1 - rel.mean_confidence), 100 * (1 - rel.within2));
     for (const ReliabilityBin& b : rel.bins) {
@@ -539,7 +537,7 @@ void writeJson(const std::string& path, const MatcherParams& params, const Confi
         }
         js << "]";
         if (scale.probability) {
-          const Reliability rel = reliability(r.samples, kReliabilityEdges);
+          const Reliability rel = reliability(r.samples, reliabilityEdges());
           js << ", \"calibration_error\": " << rel.expected_error << ", \"predicted_bad2\": " << 1 - rel.mean_confidence
              << ", \"reliability\": [";
           for (size_t k = 0; k < rel.bins.size(); ++k) {

@@ -108,9 +108,16 @@ struct Reliability {
   std::vector<ReliabilityBin> bins;
   double expected_error = 0;
   double mean_confidence = 0, within2 = 0;  ///< over every binned estimate
+  /// The most a bin claims over what it has (mean confidence - share within
+  /// 2 px), over the bins from `from_confidence` up holding at least
+  /// `min_share` of the estimates; -1 when none does.
+  double mostClaimedOver(float from_confidence = 0.f, double min_share = 0.01) const;
 };
+/// The bins bdis_eval and the tests use: 0-0.5, 0.5-0.6, ..., 0.9-0.95,
+/// 0.95-0.98, 0.98-1, finer where most estimates lie.
+const std::vector<float>& reliabilityEdges();
 /// `edges` increasing, at least two; estimates outside [front, back] are left out.
-Reliability reliability(const EstimateSamples& samples, const std::vector<float>& edges);
+Reliability reliability(const EstimateSamples& samples, const std::vector<float>& edges = reliabilityEdges());
 
 /// How well a variance describes the errors, as a standard deviation should:
 /// the shares of |error| within 1 and 2 sigma (a Gaussian: 68 % and 95 %),

@@ -151,14 +151,11 @@ TEST_P(DefaultPresetCalibration, SaysTheShareOfEstimatesWithinTwoPx) {
                                                             const bdis::MatchResult& result) {
     samples.add(result.disparity, gt, bdis::classifyPixels(gt, left), result.confidence, cv::Mat());
   }));
-  const bdis::Reliability r = bdis::reliability(samples, {0.f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f, 0.95f, 0.98f, 1.f});
+  const bdis::Reliability r = bdis::reliability(samples);
   std::printf("%s: expected calibration error %.3f; per bin share, mean confidence / within 2 px:", bar.sequence,
               r.expected_error);
-  double over_claim = -1;
-  for (const bdis::ReliabilityBin& b : r.bins) {
-    std::printf(" %.1f%% %.3f/%.3f", 100 * b.share, b.mean_confidence, b.within2);
-    if (b.share >= 0.01) over_claim = std::max(over_claim, b.mean_confidence - b.within2);
-  }
+  for (const bdis::ReliabilityBin& b : r.bins) std::printf(" %.1f%% %.3f/%.3f", 100 * b.share, b.mean_confidence, b.within2);
+  const double over_claim = r.mostClaimedOver();
   std::printf("; most claimed over what a bin has %.3f\n", over_claim);
   ASSERT_EQ(r.bins.size(), 8u);
   EXPECT_LE(r.expected_error, bar.max_calibration_error);

@@ -160,9 +160,15 @@ TEST(ErrorConfidence, ReliabilityComparesEachBinsConfidenceWithItsShareWithinTwo
   // Over all 101: the mean confidence and the share within 2 px.
   EXPECT_NEAR(r.mean_confidence, (40 * 0.55 + 60 * 0.99 + 1.0) / 101, 1e-6);
   EXPECT_DOUBLE_EQ(r.within2, 82.0 / 101);
+  // The most a bin claims over what it has: about 0 at 0.5-0.6, the wrong
+  // estimate at confidence 1 in 0.98-1; no bin holds a 70 % share.
+  EXPECT_NEAR(r.mostClaimedOver(), (60 * 0.99 + 1.0) / 61 - 60.0 / 61, 1e-6);
+  EXPECT_DOUBLE_EQ(r.mostClaimedOver(0.f, 0.7), -1.0);
   // A confidence that claims 0.99 for estimates that are all wrong is far off.
   const bdis::Reliability wrong = bdis::reliability(samples({5.f, 6.f, 7.f}, {0.99f, 0.99f, 0.99f}), {0.f, 1.f});
   EXPECT_NEAR(wrong.expected_error, 0.99, 1e-6);
+  EXPECT_NEAR(wrong.mostClaimedOver(), 0.99, 1e-6);
+  EXPECT_DOUBLE_EQ(wrong.mostClaimedOver(0.5f), -1.0);  // its one bin starts at 0
   // Fewer than two edges: no bins.
   EXPECT_TRUE(bdis::reliability(samples({1.f}, {0.5f}), {0.f}).bins.empty());
 }
