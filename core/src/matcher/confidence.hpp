@@ -80,7 +80,7 @@ constexpr float kBlockGridDoubt = 0.75f;
 /// error should be (docs/method.md, "Variance"): shares of the covering
 /// patches' window fit, of the squared spread and of the squared left-right
 /// difference (the inlier's error), plus an outlier's squared error times
-/// the probability the published confidence gives the estimate of being one
+/// the probability the cues' product gives the estimate of being one
 /// (outlier_variance.hpp). Without that term the shares alone (0.015, 0.75,
 /// 0.75) put 79 % of the colon's errors within 1 sigma but ranked them
 /// poorly: sorted by sigma, the errors' sparsification area was 5.5 times

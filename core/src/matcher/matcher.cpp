@@ -201,7 +201,8 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   //    change no disparity.
   if (with_confidence) m.applyConfidenceCues(finest, out);
   // 7. The variance's outlier term: the outlier's squared error times the
-  //    probability the published confidence gives the estimate of being one.
+  //    probability the cues' product (the confidence, not yet calibrated)
+  //    gives the estimate of being one.
   if (with_variance) {
     detail::addOutlierVariance(out.disparity, out.confidence, detail::kOutlierVariancePx2 * level_px * level_px,
                                detail::kOutlierHalfConfidence, out.variance);

@@ -2,8 +2,9 @@
 // either right, with the small error its patches' window fit, spread and
 // left-right difference describe, or an outlier, whose error those miss
 // (a near miss on slanted tissue, a fattened edge, a dark guess). The
-// published confidence ranks which is which; so the variance adds the
-// outlier's squared error times the probability the confidence gives it,
+// confidence's cues rank which is which; so the variance adds the outlier's
+// squared error times the probability their product (the confidence before
+// its calibration) gives it,
 // and a downstream node weighting depths by 1 / variance down-weights the
 // likely outliers, not only the loosely pinned inliers.
 #pragma once
