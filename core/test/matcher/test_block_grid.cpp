@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "bdis_stereo/matcher.hpp"
+#include "cues_product_params.hpp"
 #include "block_grid.hpp"
 #include "block_grid_cue.hpp"
 #include "pyramid.hpp"
@@ -122,9 +123,7 @@ double medianConfidence(int shift, int quality) {
     left = jpegRoundTrip(left, quality);
     right = jpegRoundTrip(right, quality);
   }
-  bdis::MatcherParams params;
-  params.calibrated_confidence = false;
-  bdis::Matcher matcher(params);
+  bdis::Matcher matcher(bdis_test::cuesProductParams());
   bdis::MatchResult result;
   matcher.compute(left, right, result);
   std::vector<float> confidence;

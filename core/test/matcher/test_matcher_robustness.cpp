@@ -15,6 +15,7 @@
 
 #include "bdis_stereo/error_analysis.hpp"
 #include "bdis_stereo/matcher.hpp"
+#include "cues_product_params.hpp"
 #include "matcher_test_util.hpp"
 #include "test_images.hpp"
 
@@ -45,16 +46,8 @@ namespace {
 // legitimately confident; see the DISABLED_ test below for that band.
 // ---------------------------------------------------------------------------
 
+// On the cues' product's scale: the tests run with cuesProductParams().
 constexpr double kLowConfidence = 0.1;
-
-/// The defaults with the confidence left as the cues' product, the scale
-/// kLowConfidence is set on (the published one is a probability of being
-/// within 2 px: tested in test_confidence_calibration and on the colon).
-MatcherParams cuesProductParams() {
-  MatcherParams params;
-  params.calibrated_confidence = false;
-  return params;
-}
 
 struct FlatScene {
   StereoPair pair;

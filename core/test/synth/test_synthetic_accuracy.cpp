@@ -10,6 +10,7 @@
 #include "bdis_stereo/error_analysis.hpp"
 #include "bdis_stereo/evaluation.hpp"
 #include "bdis_stereo/matcher.hpp"
+#include "cues_product_params.hpp"
 #include "synth_test_util.hpp"
 
 #include <functional>
@@ -48,17 +49,11 @@ const MatcherRun& bdisRun(const SceneConfig& config, const bdis::MatcherParams& 
   return run;
 }
 
-/// The defaults with the confidence left as the cues' product: the scale
-/// the region tests below set "confident" on (kConfident), which they ask
-/// of the cues. The published confidence, a probability of being within
-/// 2 px, is checked by PublishedConfidenceSaysTheShareWithinTwoPx.
-bdis::MatcherParams cuesProductParams() {
-  bdis::MatcherParams params;
-  params.calibrated_confidence = false;
-  return params;
+// The region tests below set "confident" (kConfident) on the cues' product;
+// the published confidence is checked by PublishedConfidenceSaysTheShareWithinTwoPx.
+const MatcherRun& bdisRun(const std::string& name) {
+  return bdisRun(variant(name), bdis_test::cuesProductParams());
 }
-
-const MatcherRun& bdisRun(const std::string& name) { return bdisRun(variant(name), cuesProductParams()); }
 
 struct Bar {
   const char* variant;
