@@ -9,7 +9,9 @@ finest level the matcher picks by the width (1 at 640 px, 2 at 1280, 3 at
 probability is the share of estimates within 2 px among those whose raw
 confidence lies within half an octave of it, every sequence weighted alike,
 with a prior that keeps a knot with few estimates near its neighbours; the
-table is then made strictly increasing (pool adjacent violators).
+table is then made increasing (pool adjacent violators) and strictly so,
+with room between the top knots for the most confident estimates to keep
+their order.
 
 Fit on generated scenes only, never on the evaluation sequences. Level 1:
 
@@ -37,7 +39,9 @@ import numpy as np
 KNOTS = 40             # octaves below 1 that the table spans
 BAD_PX = 2.0           # an estimate off by more than this is an outlier (bad2)
 PRIOR_WEIGHT = 0.002   # pseudo-count, in units of one sequence's estimates, towards the pooled share
-MIN_STEP = 1e-6        # the table rises at least this much per octave: no ties
+MIN_STEP = 1e-4        # the table rises at least this much per octave, or
+MIN_WRONG_DROP = 0.1   # the share not within 2 px falls by at least this part of itself:
+                       # near 1 a float has few values, and estimates must not tie there
 
 
 def load(dump_dir, sequence_dir):
@@ -91,10 +95,13 @@ def fit(samples):
     share = (good_sum + PRIOR_WEIGHT * pooled) / (weight_sum + PRIOR_WEIGHT)
     table = increasing(share, weight_sum + PRIOR_WEIGHT)
     # Strictly increasing and below 1, so that the order of the raw
-    # confidence survives: fixed from the top down.
+    # confidence survives: fixed from the top down. Near 1 the rise is a part
+    # of what is left below 1 (a float has about 2^24 values in [0.5, 1),
+    # evenly spaced, so a fixed small rise would leave the most confident
+    # estimates a few dozen values to share).
     table = np.minimum(table, 1 - MIN_STEP)
     for i in range(len(table) - 2, -1, -1):
-        table[i] = min(table[i], table[i + 1] - MIN_STEP)
+        table[i] = min(table[i], table[i + 1] - min(MIN_STEP, MIN_WRONG_DROP * (1 - table[i + 1])))
     return table
 
 
