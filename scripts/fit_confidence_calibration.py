@@ -39,9 +39,10 @@ import numpy as np
 KNOTS = 40             # octaves below 1 that the table spans
 BAD_PX = 2.0           # an estimate off by more than this is an outlier (bad2)
 PRIOR_WEIGHT = 0.002   # pseudo-count, in units of one sequence's estimates, towards the pooled share
-MIN_STEP = 1e-4        # the table rises at least this much per octave, or
-MIN_WRONG_DROP = 0.1   # the share not within 2 px falls by at least this part of itself:
-                       # near 1 a float has few values, and estimates must not tie there
+# Each knot lies below the next by at least MIN_STEP or, nearer 1, by
+# MIN_WRONG_DROP of what the next leaves below 1 (see fit()).
+MIN_STEP = 1e-4
+MIN_WRONG_DROP = 0.1
 
 
 def load(dump_dir, sequence_dir):

@@ -134,7 +134,7 @@ struct CalibrationBar {
   double max_calibration_error;
 };
 
-class DefaultPresetCalibration : public OnSharedData<CalibrationBar> {};
+class PresetCalibration : public OnSharedData<CalibrationBar> {};
 
 // The published confidence says what share of estimates is within 2 px
 // (the calibration was fitted on generated scenes only, so these frames
@@ -148,7 +148,7 @@ class DefaultPresetCalibration : public OnSharedData<CalibrationBar> {};
 // table was fitted on balanced; the other presets, which a user switches to
 // for speed or for offline work, keep it: fast 0.046 / 0.024, accurate
 // 0.055 / 0.039, at most 0.011 claimed over.
-TEST_P(DefaultPresetCalibration, SaysTheShareOfEstimatesWithinTwoPx) {
+TEST_P(PresetCalibration, SaysTheShareOfEstimatesWithinTwoPx) {
   const CalibrationBar bar = GetParam();
   const bdis::MatcherParams params = bdis::MatcherParams::preset(bar.preset);
   bdis::EstimateSamples samples;
@@ -168,7 +168,7 @@ TEST_P(DefaultPresetCalibration, SaysTheShareOfEstimatesWithinTwoPx) {
 }
 
 INSTANTIATE_TEST_SUITE_P(
-    SharedData, DefaultPresetCalibration,
+    SharedData, PresetCalibration,
     ::testing::Values(CalibrationBar{"synthetic_colon_diffuse", "balanced", 0.065},
                       CalibrationBar{"synthetic_colon_specular", "balanced", 0.045},
                       CalibrationBar{"synthetic_colon_diffuse", "fast", 0.06},

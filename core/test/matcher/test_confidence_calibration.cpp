@@ -1,7 +1,7 @@
 // The confidence's calibration stage (confidence_calibration.hpp): the map
 // from the cues' product to a probability of being within 2 px. Its values
 // come from a fit (checked against ground truth in test_core's
-// DefaultPresetCalibration and test_synth); here, the properties every use
+// PresetCalibration and test_synth); here, the properties every use
 // of it relies on.
 #include <gtest/gtest.h>
 
