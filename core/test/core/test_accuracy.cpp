@@ -14,6 +14,7 @@
 #include "bdis_stereo/error_analysis.hpp"
 #include "bdis_stereo/evaluation.hpp"
 #include "bdis_stereo/matcher.hpp"
+#include "reliability_report.hpp"
 
 namespace {
 
@@ -157,11 +158,8 @@ TEST_P(PresetCalibration, SaysTheShareOfEstimatesWithinTwoPx) {
     samples.add(result.disparity, gt, bdis::classifyPixels(gt, left), result.confidence, cv::Mat());
   }, params));
   const bdis::Reliability r = bdis::reliability(samples);
-  std::printf("%s, %s: expected calibration error %.3f; per bin share, mean confidence / within 2 px:", bar.sequence,
-              bar.preset, r.expected_error);
-  for (const bdis::ReliabilityBin& b : r.bins) std::printf(" %.1f%% %.3f/%.3f", 100 * b.share, b.mean_confidence, b.within2);
-  const double over_claim = r.mostClaimedOver();
-  std::printf("; most claimed over what a bin has %.3f\n", over_claim);
+  const std::string label = std::string(bar.sequence) + ", " + bar.preset;
+  const double over_claim = bdis_test::reportReliability(label.c_str(), r);
   ASSERT_EQ(r.bins.size(), 8u);
   EXPECT_LE(r.expected_error, bar.max_calibration_error);
   EXPECT_LE(over_claim, 0.03);

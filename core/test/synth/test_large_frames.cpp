@@ -12,6 +12,7 @@
 #include "bdis_stereo/error_analysis.hpp"
 #include "bdis_stereo/evaluation.hpp"
 #include "bdis_stereo/matcher.hpp"
+#include "reliability_report.hpp"
 #include "synth_test_util.hpp"
 
 #include <algorithm>
@@ -108,13 +109,8 @@ TEST(LargeFrames, TheConfidenceSaysTheShareWithinTwoPxAtEverySize) {
       samples.add(r.disparity, f.gt, bdis::classifyPixels(f.gt, f.left), r.confidence, cv::Mat());
     }
     const bdis::Reliability rel = bdis::reliability(samples);
-    std::printf("  %dx%d: expected calibration error %.3f, bad2 predicted %.1f%% / found %.1f%%; bins:", size.width,
-                size.height, rel.expected_error, 100 * (1 - rel.mean_confidence), 100 * (1 - rel.within2));
-    for (const bdis::ReliabilityBin& b : rel.bins) {
-      std::printf(" %.1f%% %.2f/%.2f", 100 * b.share, b.mean_confidence, b.within2);
-    }
-    const double over_claim = rel.mostClaimedOver(0.8f);
-    std::printf("; most claimed over from 0.8 up %.3f\n", over_claim);
+    const std::string label = std::to_string(size.width) + "x" + std::to_string(size.height);
+    const double over_claim = bdis_test::reportReliability(label.c_str(), rel, 0.8f);
     EXPECT_LE(rel.expected_error, 0.04) << size.width;
     EXPECT_LE(over_claim, 0.08) << size.width;
   }

@@ -11,6 +11,7 @@
 #include "bdis_stereo/evaluation.hpp"
 #include "bdis_stereo/matcher.hpp"
 #include "cues_product_params.hpp"
+#include "reliability_report.hpp"
 #include "synth_test_util.hpp"
 
 #include <functional>
@@ -331,13 +332,7 @@ TEST(SyntheticBehaviour, PublishedConfidenceSaysTheShareWithinTwoPx) {
   for (const char* name : {"diffuse", "specular", "textureless", "instrument", "dark_periphery", "tube", "dark_tube",
                            "compressed_dark"}) {
     const bdis::Reliability r = bdis::reliability(samplesOf(bdisRun(variant(name))));
-    std::printf("  %-15s expected calibration error %.3f; share, mean confidence / within 2 px:", name,
-                r.expected_error);
-    for (const bdis::ReliabilityBin& b : r.bins) {
-      std::printf(" %.1f%% %.2f/%.2f", 100 * b.share, b.mean_confidence, b.within2);
-    }
-    const double over_claim = r.mostClaimedOver(0.8f);
-    std::printf("; most claimed over from 0.8 up %.3f\n", over_claim);
+    const double over_claim = bdis_test::reportReliability(name, r, 0.8f);
     EXPECT_LE(r.expected_error, 0.06) << name;
     EXPECT_LE(over_claim, 0.07) << name;
   }
