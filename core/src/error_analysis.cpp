@@ -5,6 +5,7 @@
 #include <limits>
 #include <numeric>
 #include <stdexcept>
+#include <utility>
 
 #include <opencv2/imgproc.hpp>
 
@@ -172,6 +173,59 @@ RegionScore scoreRegions(const cv::Mat& disparity, const cv::Mat& gt, const cv::
       if (!(d[x] >= 0.f)) continue;
       c.estimated += 1;
       if (std::fabs(d[x] - g[x]) > 2.f) c.bad2 += 1;
+    }
+  }
+  return s;
+}
+
+void InstrumentBandScore::add(const InstrumentBandScore& o) {
+  for (auto [to, from] : {std::pair<Band*, const Band*>{&tissue, &o.tissue}, {&rim, &o.rim}}) {
+    to->scorable += from->scorable;
+    to->estimated += from->estimated;
+    to->bad2 += from->bad2;
+    to->confident_bad2 += from->confident_bad2;
+    to->confidence_sum += from->confidence_sum;
+  }
+}
+
+InstrumentBandScore scoreInstrumentBands(const cv::Mat& disparity, const cv::Mat& gt, const cv::Mat& regions,
+                                         const cv::Mat& surfaces, const cv::Mat& confidence, int band_px,
+                                         float confident) {
+  requireSameSize(disparity, gt, regions, "scoreInstrumentBands");
+  if (surfaces.type() != CV_8UC1 || surfaces.size() != gt.size() ||
+      (!confidence.empty() && (confidence.type() != CV_32FC1 || confidence.size() != gt.size()))) {
+    throw std::invalid_argument("scoreInstrumentBands: surfaces must be CV_8UC1 and the confidence CV_32FC1 or "
+                                "empty, of the ground truth's size");
+  }
+  if (band_px < 1) throw std::invalid_argument("scoreInstrumentBands: band_px must be >= 1");
+  const cv::Mat1b instrument = surfaces == kInstrumentSurface;
+  cv::Mat1b grown, shrunk;
+  cv::dilate(instrument, grown, cv::Mat(), cv::Point(-1, -1), band_px);
+  cv::erode(instrument, shrunk, cv::Mat(), cv::Point(-1, -1), band_px);
+  InstrumentBandScore s;
+  for (int y = 0; y < gt.rows; ++y) {
+    const float* d = disparity.ptr<float>(y);
+    const float* g = gt.ptr<float>(y);
+    const uchar* r = regions.ptr<uchar>(y);
+    const float* c = confidence.empty() ? nullptr : confidence.ptr<float>(y);
+    for (int x = 0; x < gt.cols; ++x) {
+      if (r[x] == kNotScorable) continue;
+      InstrumentBandScore::Band* band = nullptr;
+      if (instrument(y, x)) {
+        if (!shrunk(y, x)) band = &s.rim;
+      } else if (grown(y, x)) {
+        band = &s.tissue;
+      }
+      if (!band) continue;
+      band->scorable += 1;
+      if (!(d[x] >= 0.f)) continue;
+      band->estimated += 1;
+      const bool wrong = std::fabs(d[x] - g[x]) > 2.f;
+      if (wrong) band->bad2 += 1;
+      if (c) {
+        band->confidence_sum += c[x];
+        if (wrong && c[x] >= confident) band->confident_bad2 += 1;
+      }
     }
   }
   return s;

@@ -197,6 +197,7 @@ StereoSequence StereoSequence::open(const std::string& root) {
   seq.names = pairedFileNames((fs::path(root) / "left").string(), (fs::path(root) / "right").string());
   if (seq.names.empty()) throw std::runtime_error("sequence " + root + " has no image pairs");
   seq.has_ground_truth = fs::is_directory(fs::path(root) / "gt_disparity");
+  seq.has_surfaces = fs::is_directory(fs::path(root) / "labels");
   return seq;
 }
 
@@ -210,6 +211,14 @@ cv::Mat StereoSequence::groundTruth(size_t i) const {
   cv::Mat d = readDisparityPng((fs::path(root) / "gt_disparity" / names.at(i)).string());
   cv::max(d, 0.f, d);  // unknown (-1) becomes 0 as in the file
   return d;
+}
+
+cv::Mat StereoSequence::surfaces(size_t i) const {
+  const std::string path = (fs::path(root) / "labels" / names.at(i)).string();
+  cv::Mat labels = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (labels.empty()) throw std::runtime_error("cannot read " + path);
+  if (labels.type() != CV_8UC1) throw std::runtime_error(path + " is not an 8-bit single-channel label image");
+  return labels;
 }
 
 std::string findDataDir() {

@@ -10,6 +10,7 @@
 #include <map>
 #include <memory>
 #include <sstream>
+#include <utility>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/utility.hpp>
@@ -37,6 +38,11 @@ Besides the summary table it prints, per sequence and method:
   - the scorable pixels split by what the ground truth says (out of the right
     view, occluded in it, dark, near a depth edge, the rest): share, density
     and bad2 of each;
+  - for sequences with labels/ (bdis_synth writes them: the surface each left
+    pixel sees), the tissue within 12 px of the instrument and the
+    instrument's 12 px rim: share, density, bad2, the estimates off by more
+    than 2 px with confidence >= 0.5 as a share of the band, and the band's
+    mean confidence against its share within 2 px;
   - for methods with a confidence (bdis; predictions with conf_ files): its
     sparsification area against the oracle's, bad2 of the 25 % and 50 % most
     confident estimates, bad2 per confidence decile, and the density and bad2
@@ -189,6 +195,7 @@ struct Row {
   bool has_ground_truth = true;
   DisparityScore score;
   RegionScore regions;
+  InstrumentBandScore instrument;  ///< sequences with labels/ only
   EstimateSamples samples;  ///< per estimate: confidence, error, sigma
   bool has_confidence = false, has_variance = false;
   double grid_contrast_sum = 0;  ///< the views' block codec grid (checkBlockArtefacts), summed over frames
@@ -319,6 +326,8 @@ std::vector<Row> scoreSequence(const std::string& root, std::vector<Method>& met
     std::vector<std::string> files = {(seq_root / "left" / seq.names[f]).string(),
                                       (seq_root / "right" / seq.names[f]).string()};
     if (seq.has_ground_truth) files.push_back((seq_root / "gt_disparity" / seq.names[f]).string());
+    const bool with_surfaces = seq.has_ground_truth && seq.has_surfaces;
+    if (with_surfaces) files.push_back((seq_root / "labels" / seq.names[f]).string());
     for (const std::string& file : files) checkImagePixels(file, o.max_image_pixels);
     const cv::Mat left = seq.left(f);
     checkImagePixels(files[0], left, o.max_image_pixels);
@@ -326,6 +335,10 @@ std::vector<Row> scoreSequence(const std::string& root, std::vector<Method>& met
     checkImagePixels(files[1], right, o.max_image_pixels);
     const cv::Mat gt = seq.has_ground_truth ? seq.groundTruth(f) : cv::Mat();
     const cv::Mat labels = seq.has_ground_truth ? classifyPixels(gt, left) : cv::Mat();
+    const cv::Mat surfaces = with_surfaces ? seq.surfaces(f) : cv::Mat();
+    if (with_surfaces && surfaces.size() != left.size()) {
+      throw std::runtime_error(files.back() + " is not a label image of the left image's size");
+    }
     const double grid_contrast =
         checkBlockArtefacts(left).grid_contrast + checkBlockArtefacts(right).grid_contrast;
     for (size_t m = 0; m < methods.size(); ++m) {
@@ -342,6 +355,7 @@ std::vector<Row> scoreSequence(const std::string& root, std::vector<Method>& met
         const double scale = o.reference_width > 0 ? static_cast<double>(o.reference_width) / left.cols : 1.0;
         row.score.add(scoreDisparity(disparity, gt, left, scale));
         row.regions.add(scoreRegions(disparity, gt, labels));
+        if (with_surfaces) row.instrument.add(scoreInstrumentBands(disparity, gt, labels, surfaces, confidence));
         row.samples.add(disparity, gt, labels, confidence, variance);
       } else {
         row.valid_pixels_density_sum += validPixelDensity(disparity, left);
@@ -394,6 +408,30 @@ void printRegions(const std::vector<Row>& rows) {
       const auto region = static_cast<PixelRegion>(k);
       const RegionScore::Counts& c = r.regions[region];
       std::printf("  %5.1f%% %6.3f %6.1f%%    ", 100 * r.regions.share(region), c.density(), 100 * c.bad2Rate());
+    }
+    std::printf("\n");
+  }
+}
+
+void printInstrumentBands(const std::vector<Row>& rows) {
+  bool any = false;
+  for (const Row& r : rows) any = any || r.instrument.any();
+  if (!any) return;
+  std::printf("\nbeside the instrument (sequences with labels/): the tissue within 12 px of it and its own 12 px\n"
+              "rim; share of the scorable pixels, density, bad2, wrong with confidence >= 0.5 (share of the\n"
+              "band), mean confidence / share within 2 px of the band's estimates\n");
+  std::printf("%-28s %-11s %44s %44s\n", "sequence", "method", "tissue within 12 px", "instrument rim");
+  for (const Row& r : rows) {
+    if (!r.instrument.any()) continue;
+    std::printf("%-28s %-11s", r.sequence.c_str(), r.method.c_str());
+    for (const InstrumentBandScore::Band* b : {&r.instrument.tissue, &r.instrument.rim}) {
+      const double share = r.regions.scorable() > 0 ? b->scorable / r.regions.scorable() : 0.0;
+      std::printf("  %5.1f%% %6.3f %6.1f%%", 100 * share, b->density(), 100 * b->bad2Rate());
+      if (r.has_confidence) {
+        std::printf(" %6.2f%% %4.2f/%4.2f", 100 * b->confidentBad2Share(), b->meanConfidence(), 1 - b->bad2Rate());
+      } else {
+        std::printf(" %7s %9s", "-", "-");
+      }
     }
     std::printf("\n");
   }
@@ -523,6 +561,24 @@ void writeJson(const std::string& path, const MatcherParams& params, const Confi
            << ", \"density\": " << r.regions[region].density() << ", \"bad2\": " << r.regions[region].bad2Rate() << "}";
       }
       js << "}";
+      if (r.instrument.any()) {
+        js << ",\n     \"instrument_bands\": {";
+        bool first_band = true;
+        for (const auto& [band_name, b] : {std::pair<const char*, const InstrumentBandScore::Band*>{
+                                               "tissue_within_12px", &r.instrument.tissue},
+                                           {"instrument_rim_12px", &r.instrument.rim}}) {
+          js << (first_band ? "" : ", ") << "\"" << band_name << "\": {\"share\": "
+             << (r.regions.scorable() > 0 ? b->scorable / r.regions.scorable() : 0.0)
+             << ", \"density\": " << b->density() << ", \"bad2\": " << b->bad2Rate();
+          if (r.has_confidence) {
+            js << ", \"confident_bad2_share\": " << b->confidentBad2Share()
+               << ", \"mean_confidence\": " << b->meanConfidence();
+          }
+          js << "}";
+          first_band = false;
+        }
+        js << "}";
+      }
       if (r.has_confidence) {
         const Sparsification s = sparsify(r.samples);
         js << ",\n     \"confidence\": {\"sparsification_area\": " << s.area << ", \"oracle_area\": " << s.oracle_area
@@ -597,6 +653,7 @@ int run(int argc, char** argv) {
   }
   printSummary(rows);
   printRegions(rows);
+  printInstrumentBands(rows);
   const ConfidenceScale scale{params.calibrated_confidence};
   printConfidence(rows, scale);
   printVariance(rows);

@@ -1,6 +1,8 @@
 // bdis_synth: renders a synthetic rectified stereo sequence of an endoscopic
 // scene with exact ground-truth disparity, in the layout of the shared data
-// folder (left/, right/, gt_disparity/, camera.yaml). Same settings, same bytes.
+// folder (left/, right/, gt_disparity/, camera.yaml), plus labels/ (the surface
+// each left pixel sees, for bdis_eval's rows beside the instrument). Same
+// settings, same bytes.
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -17,7 +19,8 @@ using namespace bdis::tools;
 constexpr const char* kUsage = R"(usage: bdis_synth --out DIR [options]
 
 Renders a rectified stereo sequence with exact ground truth into DIR:
-left/ and right/ (8-bit BGR PNG), gt_disparity/ (16-bit PNG, d * 256, 0 = unknown)
+left/ and right/ (8-bit BGR PNG), gt_disparity/ (16-bit PNG, d * 256, 0 = unknown),
+labels/ (8-bit PNG, the surface each left pixel sees: 0 none, 1 tissue, 2 instrument)
 and camera.yaml. Scene units are metres. The defaults give the demo's sample:
 a breathing tissue surface, specular lighting, an instrument, 30 frames at 640x480.
 

@@ -55,6 +55,37 @@ struct RegionScore {
 /// `disparity` (CV_32FC1, negative = none) against `labels` from classifyPixels and `gt`.
 RegionScore scoreRegions(const cv::Mat& disparity, const cv::Mat& gt, const cv::Mat& labels);
 
+/// Scenes with an instrument whose pixels are known (the `labels/` bdis_synth
+/// writes: the surface each left pixel sees, kInstrumentSurface on the
+/// instrument): the tissue within `band_px` of the instrument's outline, where
+/// a patch straddling the outline carries the instrument's depth onto the
+/// tissue beside it (foreground fattening), and the instrument's own rim of
+/// `band_px`, where the tissue's depth bleeds in. "Within" is the chessboard
+/// distance (a 3 x 3 dilation repeated `band_px` times).
+constexpr unsigned char kInstrumentSurface = 2;
+struct InstrumentBandScore {
+  struct Band {
+    double scorable = 0, estimated = 0, bad2 = 0;
+    double confident_bad2 = 0;  ///< off by > 2 px with confidence >= the threshold given
+    double confidence_sum = 0;  ///< over the estimates, when there is a confidence
+    double density() const { return scorable > 0 ? estimated / scorable : 0.0; }
+    double bad2Rate() const { return estimated > 0 ? bad2 / estimated : 0.0; }
+    /// Confidently wrong estimates as a share of the band's scorable pixels.
+    double confidentBad2Share() const { return scorable > 0 ? confident_bad2 / scorable : 0.0; }
+    /// What the band's confidence claims (its mean) against what it has (1 - bad2 rate).
+    double meanConfidence() const { return estimated > 0 ? confidence_sum / estimated : 0.0; }
+  };
+  Band tissue, rim;
+  bool any() const { return tissue.scorable + rim.scorable > 0; }
+  void add(const InstrumentBandScore& other);
+};
+/// `surfaces` CV_8UC1 (kInstrumentSurface on the instrument), `regions` from
+/// classifyPixels (its scorable pixels are scored), `confidence` CV_32FC1 or
+/// empty (then no pixel counts as confident).
+InstrumentBandScore scoreInstrumentBands(const cv::Mat& disparity, const cv::Mat& gt, const cv::Mat& regions,
+                                         const cv::Mat& surfaces, const cv::Mat& confidence, int band_px = 12,
+                                         float confident = 0.5f);
+
 /// Every estimated scorable pixel's confidence, absolute error and (when a
 /// variance is given) standard deviation, pooled over frames.
 struct EstimateSamples {

@@ -73,12 +73,16 @@ struct StereoSequence {
   std::string root;
   std::vector<std::string> names;  ///< file names present in both left/ and right/, sorted
   bool has_ground_truth = false;   ///< gt_disparity/ exists
+  bool has_surfaces = false;       ///< labels/ exists (generated scenes: the surface each left pixel sees)
 
   /// Lists the sequence; throws std::runtime_error if left/ or right/ is missing or empty.
   static StereoSequence open(const std::string& root);
   cv::Mat left(size_t i) const;    ///< readStereoImage of left/<name>
   cv::Mat right(size_t i) const;
   cv::Mat groundTruth(size_t i) const;  ///< CV_32FC1 px, 0 = unknown (not -1)
+  /// CV_8UC1 labels/<name>: 0 none, 1 tissue, 2 instrument (kInstrumentSurface);
+  /// throws std::runtime_error if it is missing or not an 8-bit single-channel image.
+  cv::Mat surfaces(size_t i) const;
 };
 
 /// Root of the shared data folder, found at run time: $BDIS_DATA_DIR if set,

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "bdis_stereo/error_analysis.hpp"
 #include "bdis_stereo/evaluation.hpp"
 #include "bdis_stereo/synthetic_scene.hpp"
 
@@ -14,6 +15,8 @@ namespace fs = std::filesystem;
 
 namespace bdis {
 namespace synth {
+
+static_assert(kLabelInstrument == kInstrumentSurface, "labels/ marks the instrument as bdis_eval reads it");
 
 namespace {
 
@@ -82,7 +85,7 @@ void writeSequence(const SceneConfig& config, const std::string& dir, bool overw
     throw std::runtime_error("cannot write " + dir + ": not a directory");
   }
   const std::regex frame_re("[0-9]{6}\\.png");
-  for (const char* sub : {"left", "right", "gt_disparity"}) {
+  for (const char* sub : {"left", "right", "gt_disparity", "labels"}) {
     const fs::path p = root / sub;
     if (!fs::is_directory(p, ec)) continue;
     std::vector<fs::path> frames;
@@ -96,7 +99,7 @@ void writeSequence(const SceneConfig& config, const std::string& dir, bool overw
     }
     for (const fs::path& f : frames) fs::remove(f, ec);
   }
-  for (const char* sub : {"left", "right", "gt_disparity"}) {
+  for (const char* sub : {"left", "right", "gt_disparity", "labels"}) {
     fs::create_directories(root / sub, ec);
     if (!fs::is_directory(root / sub)) {
       throw std::runtime_error("cannot create " + (root / sub).string() + (ec ? ": " + ec.message() : ""));
@@ -120,6 +123,7 @@ void writeSequence(const SceneConfig& config, const std::string& dir, bool overw
     frame.gt.copyTo(gt_out);
     gt_out.setTo(-1.f, frame.gt <= 0.f);
     writeDisparityPng((root / "gt_disparity" / name).string(), gt_out);
+    writeImage((root / "labels" / name).string(), frame.label);
     if (progress) progress(i + 1);
   }
 }

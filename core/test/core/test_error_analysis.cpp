@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -61,6 +62,57 @@ TEST(ErrorRegions, ScoresPerRegion) {
   EXPECT_DOUBLE_EQ(s[PixelRegion::Rest].bad2Rate(), 0.5);
   EXPECT_DOUBLE_EQ(s[PixelRegion::OutOfView].bad2Rate(), 1.0);
   EXPECT_DOUBLE_EQ(s[PixelRegion::Dark].density(), 0.0);
+}
+
+TEST(ErrorInstrumentBands, TissueBesideTheInstrumentAndItsRim) {
+  // 60 x 40 px, ground truth 10 px everywhere; the instrument a 20 x 20
+  // square (columns 20-39, rows 10-29); bands of 3 px: the tissue ring
+  // (columns 17-42, rows 7-32, less the square: 276 px) and the rim (the
+  // square less columns 23-36, rows 13-26: 204 px).
+  const cv::Mat gt(40, 60, CV_32FC1, cv::Scalar(10.f));
+  cv::Mat regions(40, 60, CV_8UC1, cv::Scalar(code(PixelRegion::Rest)));
+  cv::Mat surfaces(40, 60, CV_8UC1, cv::Scalar(1));
+  surfaces(cv::Rect(20, 10, 20, 20)).setTo(bdis::kInstrumentSurface);
+  cv::Mat d = gt.clone();
+  cv::Mat conf(40, 60, CV_32FC1, cv::Scalar(0.6f));
+  // Tissue: the ring's left side (3 x 26 px) 5 px too near, its upper half
+  // with confidence 0.8, its lower half 0.3; the ring's top right of it (3 x
+  // 23 px) without estimate, one of those pixels not scorable.
+  d(cv::Rect(17, 7, 3, 26)).setTo(15.f);
+  conf(cv::Rect(17, 7, 3, 13)).setTo(0.8f);
+  conf(cv::Rect(17, 20, 3, 13)).setTo(0.3f);
+  d(cv::Rect(20, 7, 23, 3)).setTo(-1.f);
+  regions.at<uchar>(8, 30) = kNotScorable;
+  // Rim: its left side (3 x 20 px) 3 px too near with confidence 0.9.
+  d(cv::Rect(20, 10, 3, 20)).setTo(13.f);
+  conf(cv::Rect(20, 10, 3, 20)).setTo(0.9f);
+  d.at<float>(0, 0) = 50.f;  // far from the instrument: in neither band
+
+  const bdis::InstrumentBandScore s = bdis::scoreInstrumentBands(d, gt, regions, surfaces, conf, 3, 0.5f);
+  EXPECT_EQ(s.tissue.scorable, 275);
+  EXPECT_EQ(s.tissue.estimated, 276 - 69);
+  EXPECT_EQ(s.tissue.bad2, 78);
+  EXPECT_EQ(s.tissue.confident_bad2, 39);
+  EXPECT_NEAR(s.tissue.confidentBad2Share(), 39.0 / 275, 1e-12);
+  EXPECT_NEAR(s.tissue.meanConfidence(), (39 * 0.8 + 39 * 0.3 + (207 - 78) * 0.6) / 207, 1e-6);
+  EXPECT_EQ(s.rim.scorable, 204);
+  EXPECT_EQ(s.rim.estimated, 204);
+  EXPECT_EQ(s.rim.bad2, 60);
+  EXPECT_EQ(s.rim.confident_bad2, 60);
+  EXPECT_NEAR(s.rim.meanConfidence(), (60 * 0.9 + 144 * 0.6) / 204, 1e-6);
+
+  // Without a confidence nothing is confident; frames add up.
+  bdis::InstrumentBandScore two = bdis::scoreInstrumentBands(d, gt, regions, surfaces, cv::Mat(), 3);
+  EXPECT_EQ(two.tissue.confident_bad2, 0);
+  EXPECT_EQ(two.tissue.confidence_sum, 0);
+  two.add(s);
+  EXPECT_EQ(two.tissue.scorable, 550);
+  EXPECT_EQ(two.rim.confident_bad2, 60);
+  // No instrument in view: empty bands.
+  EXPECT_FALSE(bdis::scoreInstrumentBands(d, gt, regions, cv::Mat(40, 60, CV_8UC1, cv::Scalar(1)), conf).any());
+  EXPECT_THROW(bdis::scoreInstrumentBands(d, gt, regions, surfaces, conf, 0), std::invalid_argument);
+  EXPECT_THROW(bdis::scoreInstrumentBands(d, gt, regions, surfaces(cv::Rect(0, 0, 30, 40)), conf),
+               std::invalid_argument);
 }
 
 /// n samples: error e_i, confidence c_i.

@@ -67,13 +67,16 @@ TEST_F(BdisSynthTool, WritesTheSequenceAndItsCalibration) {
   cfg.seed = 7;
   cfg.jpeg_quality = 80;
   cfg.right_gain = 1.25;
-  EXPECT_TRUE(bdis_test::identical(seq.right(1), bdis::synth::SyntheticRenderer(cfg).render(1).right));
+  const bdis::synth::SyntheticFrame frame = bdis::synth::SyntheticRenderer(cfg).render(1);
+  EXPECT_TRUE(bdis_test::identical(seq.right(1), frame.right));
+  ASSERT_TRUE(seq.has_surfaces);
+  EXPECT_TRUE(bdis_test::identical(seq.surfaces(1), frame.label));
 }
 
 TEST_F(BdisSynthTool, SameSeedSameBytes) {
   ASSERT_EQ(run(withSmall({"--out", path("a")})).code(), 0);
   ASSERT_EQ(run(withSmall({"--out", path("b")})).code(), 0);
-  for (const char* f : {"left/000001.png", "right/000001.png", "gt_disparity/000001.png", "camera.yaml"}) {
+  for (const char* f : {"left/000001.png", "right/000001.png", "gt_disparity/000001.png", "labels/000001.png", "camera.yaml"}) {
     const std::string a = readFile(fs::path(path("a")) / f), b = readFile(fs::path(path("b")) / f);
     EXPECT_FALSE(a.empty()) << f;
     EXPECT_EQ(a, b) << f;

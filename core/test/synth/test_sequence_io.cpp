@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "bdis_stereo/error_analysis.hpp"
 #include "bdis_stereo/evaluation.hpp"
 #include "synth_test_util.hpp"
 #include "test_images.hpp"
@@ -65,7 +66,7 @@ TEST(Determinism, SameSeedSameBytesOnDisk) {
   other.seed = 2;
   bdis::synth::writeSequence(other, c.str());
   const auto fa = folderBytes(a.str()), fb = folderBytes(b.str()), fc = folderBytes(c.str());
-  EXPECT_EQ(fa.size(), 3u * 3u + 1u);  // left, right, gt_disparity x 3 frames + camera.yaml
+  EXPECT_EQ(fa.size(), 4u * 3u + 1u);  // left, right, gt_disparity, labels x 3 frames + camera.yaml
   EXPECT_TRUE(fa == fb) << "two runs with the same settings wrote different bytes";
   int differing = 0;
   for (const auto& [name, bytes] : fa) {
@@ -113,6 +114,11 @@ TEST(SequenceIo, StereoSequenceReadsTheWrittenFolder) {
     ASSERT_EQ(gt.type(), CV_32FC1);
     EXPECT_LE(cv::norm(gt, f.gt, cv::NORM_INF), 0.5 / 256 + 1e-6) << i;  // 16-bit d * 256
     EXPECT_EQ(cv::countNonZero(gt > 0), cv::countNonZero(f.gt > 0)) << i;
+    // The surface each left pixel sees; the sample has the instrument in view.
+    ASSERT_TRUE(seq.has_surfaces);
+    const cv::Mat surfaces = seq.surfaces(i);
+    EXPECT_TRUE(bdis_test::identical(surfaces, f.label)) << i;
+    EXPECT_GT(cv::countNonZero(surfaces == bdis::kInstrumentSurface), 0) << i;
   }
 }
 

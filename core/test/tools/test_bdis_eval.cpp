@@ -157,6 +157,59 @@ TEST_F(BdisEvalTest, RegionsAndConfidenceOfPredictions) {
   EXPECT_NE(partial.err.find("000001.png has no confidence file"), std::string::npos) << partial.err;
 }
 
+TEST_F(BdisEvalTest, InstrumentBandsFromLabels) {
+  writeSequence();
+  // Frame 0 only: exact, with confidence 0.6, except a strip of tissue 1-3 px
+  // left of the instrument (columns 27-29, rows 7-32), 5 px too near with 0.9.
+  cv::Mat d(kHeight, kWidth, CV_32FC1, cv::Scalar(kTrueDisparity));
+  cv::Mat1w conf(kHeight, kWidth, static_cast<uint16_t>(0.6 * 65535));
+  d(cv::Rect(27, 7, 3, 26)).setTo(kTrueDisparity + 5.f);
+  conf(cv::Rect(27, 7, 3, 26)).setTo(static_cast<uint16_t>(0.9 * 65535));
+  bdis::writeDisparityPng(path("pred/000000.png"), d);
+  ASSERT_TRUE(cv::imwrite(path("pred/conf_000000.png"), conf));
+  const RunResult without = run({path("seq"), "--predictions", path("pred")});
+  ASSERT_EQ(without.code(), 0) << without.err;
+  EXPECT_EQ(without.out.find("beside the instrument"), std::string::npos) << without.out;
+
+  // The instrument a 20 x 20 square at columns 30-49, rows 10-29: the tissue
+  // within 12 px of it is columns 18-61 by rows 0-41 less the square (1448
+  // px); a 12 px rim of a 20 px square is all of it (400 px).
+  fs::create_directories(path("seq/labels"));
+  cv::Mat surfaces(kHeight, kWidth, CV_8UC1, cv::Scalar(1));
+  surfaces(cv::Rect(30, 10, 20, 20)).setTo(2);
+  for (const char* name : {"000000.png", "000001.png", "000002.png"}) {
+    ASSERT_TRUE(cv::imwrite(path(std::string("seq/labels/") + name), surfaces));
+  }
+  const RunResult r = run({path("seq"), "--predictions", path("pred"), "--json", path("r.json")});
+  ASSERT_EQ(r.code(), 0) << r.err;
+  EXPECT_NE(r.out.find("beside the instrument"), std::string::npos) << r.out;
+  const std::string json = readFile(path("r.json"));
+  std::smatch m;
+  const std::string number = "([0-9.eE+-]+)";
+  ASSERT_TRUE(std::regex_search(json, m, std::regex("\"tissue_within_12px\": \\{\"share\": " + number +
+                                                    ", \"density\": " + number + ", \"bad2\": " + number +
+                                                    ", \"confident_bad2_share\": " + number +
+                                                    ", \"mean_confidence\": " + number)))
+      << json;
+  EXPECT_NEAR(std::stod(m[1]), 1448.0 / (kWidth * kHeight), 1e-6);
+  EXPECT_NEAR(std::stod(m[2]), 1.0, 1e-6);
+  EXPECT_NEAR(std::stod(m[3]), 78.0 / 1448, 1e-6);
+  EXPECT_NEAR(std::stod(m[4]), 78.0 / 1448, 1e-6);
+  EXPECT_NEAR(std::stod(m[5]), (78 * 0.9 + 1370 * 0.6) / 1448, 1e-4);
+  ASSERT_TRUE(std::regex_search(json, m, std::regex("\"instrument_rim_12px\": \\{\"share\": " + number +
+                                                    ", \"density\": " + number + ", \"bad2\": " + number)))
+      << json;
+  EXPECT_NEAR(std::stod(m[1]), 400.0 / (kWidth * kHeight), 1e-6);
+  EXPECT_EQ(std::stod(m[3]), 0.0);
+
+  // A label image of another size is refused with its name.
+  ASSERT_TRUE(cv::imwrite(path("seq/labels/000000.png"), surfaces(cv::Rect(0, 0, 32, 24))));
+  const RunResult bad = run({path("seq"), "--predictions", path("pred")});
+  EXPECT_EQ(bad.code(), 1);
+  EXPECT_NE(bad.err.find("labels/000000.png is not a label image of the left image's size"), std::string::npos)
+      << bad.err;
+}
+
 TEST_F(BdisEvalTest, DumpedOutputsScoreAsTheRunThatWroteThem) {
   // A dim generated tube: a quarter of its estimates have a confidence below
   // a 16-bit step, so only exact confidence files keep their ranking.
