@@ -80,6 +80,8 @@ const std::vector<ParamField>& paramFields() {
             "divide out the views' contrast gain, estimated from the coarser levels"),
       field("coarser_look", &MatcherParams::coarser_look, 0, 1,
             "finest level: a patch without evidence searches again one level coarser, on twice its footprint"),
+      field("support_grey", &MatcherParams::support_grey, 0.0, 255.0,
+            "finest level: a pixel g grey levels from its patch centre weighs 1 / (1 + (g / support_grey)^2), so patches beside an edge match their centre's surface; 0 = off"),
       field("min_valid_share", &MatcherParams::min_valid_share, 0.0, 1.0,
             "gamma: minimum share of valid (non-black) pixels in a patch"),
       field("saturation_grey", &MatcherParams::saturation_grey, 1, 256,
@@ -228,6 +230,8 @@ MatcherParams MatcherParams::preset(const std::string& name) {
     p.confidence_floor = 0.02f;
     // More estimates on dark and flat tissue for a few per cent of its time.
     p.coarser_look = true;
+    // Patches beside an instrument's outline match their centre's surface.
+    p.support_grey = 8.f;
     return p;
   }
   throw std::invalid_argument("unknown preset '" + name + "': expected one of " + presetList());

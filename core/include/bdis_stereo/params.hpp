@@ -50,6 +50,14 @@ struct MatcherParams {
   /// footprint: more estimates on dark and flat tissue at the same bad2, for
   /// 5-7 % of balanced's time (docs/method.md); on in accurate.
   bool coarser_look = false;
+  /// At the finest level, each patch pixel weighs 1 / (1 + ((g - c) /
+  /// support_grey)^2) in the search's costs and Gauss-Newton steps, g its
+  /// grey level and c the patch centre's: a patch straddling an instrument's
+  /// outline or a fold's rim matches the surface its centre sees, not the
+  /// stronger edge. Grey levels; 0 = off. Fewer wrong estimates beside
+  /// instruments and on slanted tissue for about a tenth more time
+  /// (docs/method.md, "Support weights"); 8 in accurate.
+  float support_grey = 0.f;
   // Bayesian patch posterior.
   float min_valid_share = 0.25f;   ///< gamma: patches with fewer valid pixels are discarded
   /// Pixels this bright or brighter in either view (grey level; a specular

@@ -26,9 +26,11 @@ void PatchSearch::configure(const MatcherParams& params) {
                           params.window_half_width, coarser_posterior_.step, params.search_band_rows);
 }
 
-void PatchSearch::beginLevel(const PyramidLevel& L, int stride, const PyramidLevel* coarser, float max_change) {
+void PatchSearch::beginLevel(const PyramidLevel& L, int stride, const PyramidLevel* coarser, float max_change,
+                             float support_grey) {
   coarser_ = coarser;
   coarser_max_change_ = max_change;
+  cost_.useSupportWeights(support_grey);
   grid_.layout(L.width, L.height, p_, stride);
   // Only grown: the finer level has more patches than the coarser one before
   // it, and resizing down and up again would construct them anew every level.

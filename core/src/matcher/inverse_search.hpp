@@ -47,9 +47,10 @@ class PatchSearch {
   /// `coarser` (the next coarser level of the same pyramid, whole), a patch
   /// whose evidence stays below kCoarserLookBelowEvidence is searched again there, where
   /// the disparity changes by less than `max_change` level px across twice
-  /// its footprint.
+  /// its footprint. `support_grey` > 0: the search's costs weigh each pixel
+  /// by its grey level's likeness to the patch centre's (PatchCost::useSupportWeights).
   void beginLevel(const PyramidLevel& L, int stride, const PyramidLevel* coarser = nullptr,
-                  float max_change = 0.f);
+                  float max_change = 0.f, float support_grey = 0.f);
   /// Forward and backward pass over patch rows [top, bottom) of the level
   /// begun last, each patch starting from `coarse` (the coarser level's
   /// dense disparity, at half this level's scale) or a neighbour's result.

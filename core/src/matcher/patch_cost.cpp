@@ -35,6 +35,7 @@ void PatchCost::configure(const KernelSet& kernels, int patch_size, bool mean_no
                           int window_half_width, float window_step, int band_rows) {
   kept_bands_ = band_rows > 0 ? std::min(band_rows, kMaxKeptBands) : kMaxKeptBands;
   kernels_ = &kernels;
+  search_kernels_ = support_inv_grey_sq_ > 0.f ? kernels.weighted : &kernels;
   p_ = patch_size;
   mean_normalization_ = mean_normalization;
   window_half_width_ = window_half_width;
@@ -56,7 +57,13 @@ void PatchCost::allocate(int max_width) {
     kept_[i].right_prefix = kept_[i].left_prefix + prefix_len;
   }
   column_count_.resize(static_cast<size_t>(max_width));
+  support_weights_.resize(static_cast<size_t>(p_) * static_cast<size_t>(p_));
   forgetBands();
+}
+
+void PatchCost::useSupportWeights(float grey) {
+  support_inv_grey_sq_ = grey > 0.f ? 1.f / (grey * grey) : 0.f;
+  search_kernels_ = grey > 0.f ? kernels_->weighted : kernels_;
 }
 
 void PatchCost::forgetBands() {
@@ -96,27 +103,71 @@ void PatchCost::setPatch(const PyramidLevel& L, int x0, int y0, bool left_all_va
   cur_.right_stride = rowStride(L.right);
   cur_.width = L.width;
   cur_.constants = constants;
+  if (support_inv_grey_sq_ > 0.f) {
+    // The weights only when a weighted sum is first asked for (weightedView).
+    weighted_view_ = cur_.view;
+    weighted_view_.weight = support_weights_.data();
+    support_weights_ready_ = false;
+  }
+}
+
+void PatchCost::computeSupportWeights(TemplateSums* sums) {
+  const float* t = cur_.view.tmpl;
+  const size_t stride = cur_.view.stride;
+  // The centre: the mean of its (up to) four valid pixels.
+  const size_t c0 = static_cast<size_t>(p_ - 1) / 2, c1 = static_cast<size_t>(p_) / 2;
+  float centre = 0.25f * (t[c0 * stride + c0] + t[c0 * stride + c1] + t[c1 * stride + c0] + t[c1 * stride + c1]);
+  support_weights_ready_ = true;
+  if (!cur_.left_all_valid) {
+    const size_t valid_stride = cur_.level->left_valid.step1();
+    float sum = 0.f, count = 0.f;
+    for (size_t y : {c0, c1}) {
+      for (size_t x : {c0, c1}) {
+        if (!cur_.valid[y * valid_stride + x]) continue;
+        sum += t[y * stride + x];
+        count += 1.f;
+      }
+    }
+    if (count == 0.f) {
+      std::fill(support_weights_.begin(), support_weights_.end(), 1.f);
+      if (sums) kernels_->weighted->template_sums(p_, weighted_view_, *sums);
+      return;
+    }
+    centre = sum / count;
+  }
+  kernels_->support_weights(p_, cur_.view, centre, support_inv_grey_sq_, support_weights_.data(), sums);
 }
 
 void PatchCost::loadPatch(const PyramidLevel& L, int x0, int y0, bool left_all_valid) {
   setPatch(L, x0, y0, left_all_valid, cur_.constants);
-  if (left_all_valid) kernels_->template_sums(p_, cur_.view, cur_.constants);
+  if (!left_all_valid) return;
+  // With support weights, the weights and the constants under them in one pass over the template.
+  if (support_inv_grey_sq_ > 0.f) {
+    computeSupportWeights(&cur_.constants);
+  } else {
+    kernels_->template_sums(p_, cur_.view, cur_.constants);
+  }
 }
 
 void PatchCost::sums(float u, ResidualSums& r, bool with_gradient) {
+  sumsOf(*search_kernels_, weightedView(), u, r, with_gradient);
+}
+
+void PatchCost::sumsOf(const KernelSet& k, const PatchView& view, float u, ResidualSums& r, bool with_gradient) {
   const SampleSpan span = sampleSpan(cur_.x0, u);
   // Fast path: the span and its right neighbour column inside the image and valid.
   if (allValidColumns(span.base, span.base + p_ + 1)) {
-    (with_gradient ? kernels_->sums_all_valid : kernels_->sums_all_valid_no_gradient)(
-        cur_.right_rows, cur_.right_stride, p_, span, cur_.view, r);
+    (with_gradient ? k.sums_all_valid : k.sums_all_valid_no_gradient)(
+        cur_.right_rows, cur_.right_stride, p_, span, view, r);
     r.g = cur_.constants.g;
     r.g_sq = cur_.constants.g_sq;
     return;
   }
-  sumsNearInvalidOrEdge(span, with_gradient, r);
+  sumsNearInvalidOrEdge(k, view, span, with_gradient, r);
 }
 
-void PatchCost::sumsNearInvalidOrEdge(SampleSpan span, bool with_gradient, ResidualSums& r) {
+void PatchCost::sumsNearInvalidOrEdge(const KernelSet& k, const PatchView& view, SampleSpan span,
+                                      bool with_gradient, ResidualSums& r) {
   const PyramidLevel& L = *cur_.level;
   // Near or past the image edge with a fully valid template: sum over the
   // columns inside the image, if those are valid.
@@ -125,17 +176,18 @@ void PatchCost::sumsNearInvalidOrEdge(SampleSpan span, bool with_gradient, Resid
     const int taps = span.frac > 0.f ? 1 : 0;
     const int lo = span.base + cols.begin, hi = span.base + cols.end + taps;
     if (cols.empty() || band_.rightInvalid(lo, hi) == 0) {
-      kernels_->sums_clipped(cur_.right_rows, cur_.right_stride, p_, span, cols, cur_.view, with_gradient, r);
+      k.sums_clipped(cur_.right_rows, cur_.right_stride, p_, span, cols, view, with_gradient, r);
       return;
     }
   }
   // Invalid pixels in the template or under the span: every pixel weighted by both validities.
-  kernels_->sums_masked(cur_.right_rows, cur_.right_stride, L.rightValidRow(cur_.y0), L.right_valid.step1(),
-                        L.width, p_, span, cur_.view, cur_.valid, L.left_valid.step1(), with_gradient, r);
+  k.sums_masked(cur_.right_rows, cur_.right_stride, L.rightValidRow(cur_.y0), L.right_valid.step1(), L.width, p_,
+                span, view, cur_.valid, L.left_valid.step1(), with_gradient, r);
 }
 
-float PatchCost::templateVariance() const {
+float PatchCost::templateVariance() {
   if (cur_.left_all_valid) return cur_.constants.variance;
+  const float* weights = weightedView().weight;
   const float ref = cur_.view.tmpl[0];  // sums of t - t[0]: see templateSums
   const size_t valid_stride = cur_.level->left_valid.step1();
   float sum = 0.f, sum_sq = 0.f, count = 0.f;
@@ -143,7 +195,7 @@ float PatchCost::templateVariance() const {
     const float* t = cur_.view.tmpl + static_cast<size_t>(y) * cur_.view.stride;
     const uchar* valid = cur_.valid + static_cast<size_t>(y) * valid_stride;
     for (int x = 0; x < p_; ++x) {
-      const float w = valid[x] ? 1.f : 0.f;
+      const float w = valid[x] ? (weights ? weights[y * p_ + x] : 1.f) : 0.f;
       const float v = t[x] - ref;
       sum += w * v;
       sum_sq += w * v * v;
@@ -155,10 +207,9 @@ float PatchCost::templateVariance() const {
   return std::max(0.f, sum_sq / count - mean * mean);
 }
 
-float PatchCost::cost(float u, float* valid_count) {
+float PatchCost::cost(float u) {
   ResidualSums r;
   sums(u, r, /*with_gradient=*/false);
-  if (valid_count) *valid_count = r.count;
   return meanSquaredResidual(r);
 }
 
@@ -176,7 +227,7 @@ void PatchCost::costs(const float* u, int n, float* out) {
     return;
   }
   ResidualSums r[kMaxBatchSpans];
-  kernels_->sums_no_gradient_batch(cur_.right_rows, cur_.right_stride, p_, spans, n, cur_.view, r);
+  search_kernels_->sums_no_gradient_batch(cur_.right_rows, cur_.right_stride, p_, spans, n, weightedView(), r);
   for (int i = 0; i < n; ++i) out[i] = meanSquaredResidual(r[i]);
 }
 
@@ -197,7 +248,10 @@ float PatchCost::windowCosts(float u, float* out) {
   }
   float valid_at_optimum = 0.f;
   for (int j = -n; j <= n; ++j) {
-    out[j + n] = cost(u + static_cast<float>(j) * delta, j == 0 ? &valid_at_optimum : nullptr);
+    ResidualSums r;
+    sumsOf(*kernels_, cur_.view, u + static_cast<float>(j) * delta, r, /*with_gradient=*/false);
+    if (j == 0) valid_at_optimum = r.count;
+    out[j + n] = meanSquaredResidual(r);
   }
   return valid_at_optimum;
 }

@@ -27,6 +27,13 @@ class PatchCost {
                  int window_half_width, float window_step, int band_rows);
   /// Scratch for levels up to `max_width` wide.
   void allocate(int max_width);
+  /// Support weights for the patches set from now on (docs/method.md,
+  /// "Support weights"): each template pixel weighs 1 / (1 + (g - c)^2 /
+  /// grey^2) in the search's costs and Gauss-Newton sums and in the
+  /// template's constants, g its grey level and c the patch centre's, so a
+  /// patch matches the surface of its centre. 0: every pixel weighs 1. The
+  /// posterior's window costs stay plain either way.
+  void useSupportWeights(float grey);
 
   /// Makes the validity band describe level rows y0 .. y0 + p - 1 of L: the
   /// patch row that the following patches lie in. The bands of the last
@@ -47,19 +54,23 @@ class PatchCost {
   const TemplateSums& constants() const { return cur_.constants; }
   int levelWidth() const { return cur_.width; }
 
-  /// The residual sums at disparity u; g_diff only `with_gradient` (a cost alone needs none).
+  /// The residual sums at disparity u, weighted by the support weights when
+  /// in use; g_diff only `with_gradient` (a cost alone needs none).
   void sums(float u, ResidualSums& r, bool with_gradient = true);
-  /// Mean squared residual at disparity u (mean-normalised if enabled); +inf without pixels.
-  float cost(float u, float* valid_count = nullptr);
-  /// cost() at n <= kMaxBatchSpans disparities, in one pass over the
-  /// template when all of them take the fast path.
+  /// Mean squared residual at disparity u (mean-normalised if enabled), as
+  /// sums() weighs it; +inf without pixels.
+  float cost(float u);
+  /// cost() at n <= kMaxBatchSpans disparities (the propagation's
+  /// candidates), in one pass over the template when all of them take the
+  /// fast path.
   void costs(const float* u, int n, float* out);
   /// The 2n+1 costs of the posterior window around u (u + j * delta, j = -n..n)
   /// into `out`, through one shared interpolation when they allow it;
-  /// returns the valid pixels at u.
+  /// returns the valid pixels at u. Plain costs: every pixel weighs 1.
   float windowCosts(float u, float* out);
-  /// Grey-level variance of the current patch's valid template pixels.
-  float templateVariance() const;
+  /// Grey-level variance of the current patch's valid template pixels (weighted
+  /// by the support weights when in use).
+  float templateVariance();
   float meanSquaredResidual(const ResidualSums& r) const {
     if (r.count <= 0.f) return std::numeric_limits<float>::infinity();
     // One division, not two: the propagation compares costs as soon as they
@@ -75,7 +86,7 @@ class PatchCost {
   struct CurrentPatch {
     const PyramidLevel* level = nullptr;
     int x0 = 0, y0 = 0;
-    PatchView view{};
+    PatchView view{};  ///< without support weights (see weighted_view_)
     const uchar* valid = nullptr;  ///< left validity at (x0, y0), rows level->left_valid.step apart
     bool left_all_valid = false;
     /// Every left pixel of the patch and every right pixel of its patch
@@ -109,10 +120,26 @@ class PatchCost {
     return cur_.left_all_valid && lo >= 0 && hi <= cur_.width &&
            (cur_.no_invalid_pixels || band_.rightInvalid(lo, hi) == 0);
   }
+  /// The sums of `view` at disparity u by the kernels `k` (the weighted ones
+  /// for the weighted view, the plain ones for the plain view).
+  [[gnu::always_inline]] inline void sumsOf(const KernelSet& k, const PatchView& view, float u, ResidualSums& r,
+                                            bool with_gradient);
   /// sums() where the all-valid kernels may not run: near the image edge or invalid pixels.
-  void sumsNearInvalidOrEdge(SampleSpan span, bool with_gradient, ResidualSums& r);
+  void sumsNearInvalidOrEdge(const KernelSet& k, const PatchView& view, SampleSpan span, bool with_gradient,
+                             ResidualSums& r);
+  /// The current patch's view with its support weights computed (once per
+  /// patch, when first asked for), or the plain view when they are off.
+  const PatchView& weightedView() {
+    if (support_inv_grey_sq_ <= 0.f) return cur_.view;
+    if (!support_weights_ready_) computeSupportWeights(nullptr);
+    return weighted_view_;
+  }
+  /// The current patch's support weights into support_weights_, and with
+  /// `sums` the template's constants under them.
+  void computeSupportWeights(TemplateSums* sums);
 
   const KernelSet* kernels_ = nullptr;
+  const KernelSet* search_kernels_ = nullptr;  ///< kernels_, or their weighted twin with support weights
   int p_ = 0;
   bool mean_normalization_ = true;
   int window_half_width_ = 2;
@@ -125,6 +152,10 @@ class PatchCost {
   int next_kept_ = 0;               ///< the slot the next band not kept goes to
   ValidityBand band_;               ///< the current band (a copy of its slot)
   std::vector<float> row_buf_, window_sum_, window_sq_;  ///< window_costs kernel scratch
+  float support_inv_grey_sq_ = 0.f;     ///< 1 / grey^2 of useSupportWeights; 0: off
+  std::vector<float> support_weights_;  ///< the current patch's, p x p
+  bool support_weights_ready_ = false;  ///< support_weights_ hold the current patch's
+  PatchView weighted_view_{};           ///< the current patch's view with support_weights_
 };
 
 }  // namespace detail

@@ -14,6 +14,7 @@ const KernelSet* avx2KernelsFor(int patch_size);
 #endif
 
 namespace {
+extern const KernelSet kScalar;
 constexpr KernelSet kScalar{"scalar",
                             &sumsAllValid,
                             &sumsAllValidNoGradient,
@@ -22,7 +23,9 @@ constexpr KernelSet kScalar{"scalar",
                             &windowCostsAllValid,
                             &sumsMasked,
                             &accumulatePatch,
-                            &templateSums};
+                            &templateSums,
+                            &supportWeights,
+                            &kScalar};
 
 bool cpuHasAvx2() {
 #if defined(BDIS_HAVE_AVX2_KERNELS) && (defined(__GNUC__) || defined(__clang__))

@@ -50,16 +50,22 @@ inline SampleSpan sampleSpan(int x0, float disparity) {
 
 /// The template side of a patch, read in place from the left level: grey
 /// values and x-gradients at the patch's top-left pixel, rows `stride` floats
-/// apart (both images share one row pitch).
+/// apart (both images share one row pitch). `weight`, when set, gives each
+/// pixel its support weight (p x p, row-major; docs/method.md, "Support
+/// weights"): every sum then weighs its pixel's terms, and the count is the
+/// weights' sum. The window costs take no weights.
 struct PatchView {
   const float* tmpl;
   const float* grad;
   size_t stride;
+  const float* weight = nullptr;
 };
 
 /// What stays constant over a patch's search when every template pixel is
 /// valid: the sums of gx and gx^2 (the parts of the 1-D Hessian) and the
-/// template's grey-level variance (the residual test's yardstick).
+/// template's grey-level variance (the residual test's yardstick); with the
+/// view's support weights, all three weighted: the variance is then that of
+/// the pixels the patch matches on, the centre's surface.
 struct TemplateSums {
   float g = 0;         ///< sum gx
   float g_sq = 0;      ///< sum gx^2
@@ -71,21 +77,45 @@ struct TemplateSums {
 /// (255 squared swamps float).
 inline void templateSums(int p, const PatchView& patch, TemplateSums& out) {
   const float ref = patch.tmpl[0];
-  float sg = 0, sgg = 0, st = 0, stt = 0;
+  float sg = 0, sgg = 0, st = 0, stt = 0, sw = 0;
   for (int y = 0; y < p; ++y) {
     const float* t = patch.tmpl + y * patch.stride;
     const float* g = patch.grad + y * patch.stride;
     for (int i = 0; i < p; ++i) {
+      const float w = patch.weight ? patch.weight[y * p + i] : 1.f;
       const float v = t[i] - ref;
-      sg += g[i];
-      sgg += g[i] * g[i];
-      st += v;
-      stt += v * v;
+      const float wg = w * g[i], wv = w * v;
+      sg += wg;
+      sgg += wg * g[i];
+      st += wv;
+      stt += wv * v;
+      sw += w;
     }
   }
-  const float count = static_cast<float>(p * p);
+  const float count = patch.weight ? sw : static_cast<float>(p * p);
   const float mean = st / count;
   out = {sg, sgg, std::max(0.f, stt / count - mean * mean)};
+}
+
+/// Support weights of a p x p template (`patch`'s grey values; its weight
+/// pointer is not read) into `weights` (p x p, row-major): 1 / (1 + (t -
+/// centre)^2 * inv_grey_sq). With `sums`, in the same pass, the template's
+/// constants under those weights, as templateSums gives them for a view
+/// with them.
+inline void supportWeights(int p, const PatchView& patch, float centre, float inv_grey_sq, float* weights,
+                           TemplateSums* sums) {
+  for (int y = 0; y < p; ++y) {
+    const float* t = patch.tmpl + y * patch.stride;
+    for (int i = 0; i < p; ++i) {
+      const float d = t[i] - centre;
+      weights[y * p + i] = 1.f / (1.f + d * d * inv_grey_sq);
+    }
+  }
+  if (sums) {
+    PatchView weighted = patch;
+    weighted.weight = weights;
+    templateSums(p, weighted, *sums);
+  }
 }
 
 /// Interpolates `len` samples of a right-image row starting at column `base`.
@@ -102,19 +132,22 @@ inline void interpolateRow(const float* row, int base, float frac, int len, floa
 inline void sumsAllValid(const float* rows, size_t stride, int p, SampleSpan span,
                          const PatchView& patch, ResidualSums& out) {
   const float w0 = 1.f - span.frac, w1 = span.frac;
-  float sd = 0, sdd = 0, sgd = 0;
+  float sd = 0, sdd = 0, sgd = 0, sw = 0;
   for (int y = 0; y < p; ++y) {
     const float* r = rows + y * stride + span.base;
     const float* t = patch.tmpl + y * patch.stride;
     const float* g = patch.grad + y * patch.stride;
     for (int i = 0; i < p; ++i) {
+      const float w = patch.weight ? patch.weight[y * p + i] : 1.f;
       const float d = w0 * r[i] + w1 * r[i + 1] - t[i];
-      sd += d;
-      sgd += g[i] * d;
-      sdd += d * d;
+      const float wd = w * d;
+      sd += wd;
+      sgd += g[i] * wd;
+      sdd += wd * d;
+      sw += w;
     }
   }
-  out.count = static_cast<float>(p * p);
+  out.count = patch.weight ? sw : static_cast<float>(p * p);
   out.diff = sd;
   out.diff_sq = sdd;
   out.g_diff = sgd;
@@ -125,17 +158,20 @@ inline void sumsAllValid(const float* rows, size_t stride, int p, SampleSpan spa
 inline void sumsAllValidNoGradient(const float* rows, size_t stride, int p, SampleSpan span,
                                    const PatchView& patch, ResidualSums& out) {
   const float w0 = 1.f - span.frac, w1 = span.frac;
-  float sd = 0, sdd = 0;
+  float sd = 0, sdd = 0, sw = 0;
   for (int y = 0; y < p; ++y) {
     const float* r = rows + y * stride + span.base;
     const float* t = patch.tmpl + y * patch.stride;
     for (int i = 0; i < p; ++i) {
+      const float w = patch.weight ? patch.weight[y * p + i] : 1.f;
       const float d = w0 * r[i] + w1 * r[i + 1] - t[i];
-      sd += d;
-      sdd += d * d;
+      const float wd = w * d;
+      sd += wd;
+      sdd += wd * d;
+      sw += w;
     }
   }
-  out.count = static_cast<float>(p * p);
+  out.count = patch.weight ? sw : static_cast<float>(p * p);
   out.diff = sd;
   out.diff_sq = sdd;
   out.g_diff = 0.f;
@@ -154,7 +190,8 @@ inline void sumsAllValidNoGradientBatch(const float* rows, size_t stride, int p,
 }
 
 /// Window fast path: the costs of `samples` disparities a whole number of
-/// pixels (`step`) apart, which share one interpolation weight. Sample j reads
+/// pixels (`step`) apart, which share one interpolation weight. Plain: the
+/// view's support weights are not read. Sample j reads
 /// the right patch at column base_lo + step * (samples - 1 - j), so one
 /// interpolated row serves every sample instead of re-interpolating per sample.
 /// Requires the columns base_lo .. base_lo + p + step * (samples - 1) valid.
@@ -208,23 +245,26 @@ inline void sumsClipped(const float* rows, size_t stride, int p, SampleSpan span
   if (cols.empty()) return;
   const bool two_taps = span.frac > 0.f;
   const float w0 = 1.f - span.frac, w1 = span.frac;
-  float sd = 0, sdd = 0, sgd = 0, sg = 0, sgg = 0;
+  float sd = 0, sdd = 0, sgd = 0, sg = 0, sgg = 0, sw = 0;
   for (int y = 0; y < p; ++y) {
     const float* r = rows + y * stride + span.base;
     const float* t = patch.tmpl + y * patch.stride;
     const float* g = patch.grad + y * patch.stride;
     for (int i = cols.begin; i < cols.end; ++i) {
+      const float w = patch.weight ? patch.weight[y * p + i] : 1.f;
       const float sample = two_taps ? w0 * r[i] + w1 * r[i + 1] : r[i];
       const float d = sample - t[i];
-      sd += d;
-      sdd += d * d;
-      sgd += g[i] * d;
-      sg += g[i];
-      sgg += g[i] * g[i];
+      const float wd = w * d, wg = w * g[i];
+      sd += wd;
+      sdd += wd * d;
+      sgd += g[i] * wd;
+      sg += wg;
+      sgg += wg * g[i];
+      sw += w;
     }
   }
-  out = {static_cast<float>((cols.end - cols.begin) * p), sd, sdd, with_gradient ? sgd : 0.f,
-         with_gradient ? sg : 0.f, with_gradient ? sgg : 0.f};
+  const float count = patch.weight ? sw : static_cast<float>((cols.end - cols.begin) * p);
+  out = {count, sd, sdd, with_gradient ? sgd : 0.f, with_gradient ? sg : 0.f, with_gradient ? sgg : 0.f};
 }
 
 /// General path: pixels invalid in the template (M == 0; rows `mask_stride`
@@ -250,14 +290,16 @@ inline void sumsMasked(const float* rows, size_t stride, const uchar* right_vali
       const int xr = span.base + i;
       if (!m[i] || xr < 0 || xr + (two_taps ? 1 : 0) >= width) continue;
       if (!rv[xr] || (two_taps && !rv[xr + 1])) continue;
+      const float w = patch.weight ? patch.weight[y * p + i] : 1.f;
       const float sample = two_taps ? w0 * r[xr] + span.frac * r[xr + 1] : r[xr];
       const float d = sample - t[i];
-      n += 1;
-      sd += d;
-      sdd += d * d;
-      sgd += g[i] * d;
-      sg += g[i];
-      sgg += g[i] * g[i];
+      const float wd = w * d, wg = w * g[i];
+      n += w;
+      sd += wd;
+      sdd += wd * d;
+      sgd += g[i] * wd;
+      sg += wg;
+      sgg += wg * g[i];
     }
   }
   out = with_gradient ? ResidualSums{n, sd, sdd, sgd, sg, sgg} : ResidualSums{n, sd, sdd, 0.f, 0.f, 0.f};
@@ -319,6 +361,12 @@ struct KernelSet {
   void (*accumulate_patch)(int p, const float* spatial, float posterior, float disparity, float evidence,
                            float* num, float* den, float* conf, float* sq, size_t stride);
   void (*template_sums)(int p, const PatchView& patch, TemplateSums& out);
+  void (*support_weights)(int p, const PatchView& patch, float centre, float inv_grey_sq, float* weights,
+                          TemplateSums* sums);
+  /// The same set for views with support weights: its sums read the view's
+  /// weights, while this set's fixed-size sums leave them unread (the plain
+  /// path pays nothing for them). The scalar set serves both.
+  const KernelSet* weighted;
 };
 
 /// Columns every right-image row of the pyramid has readable (and zero) on

@@ -277,9 +277,9 @@ void checkHashes(const std::vector<NamedPair>& pairs, const std::vector<Expected
 const std::vector<Expected> kGeneratedPairHashes = {
     {"balanced", 0x642a505e24df5aa9ull, 0x5c17f6800f12306cull, 0xf22c30175d67c4f3ull},
     {"fast", 0x1779ef0d3b15b1f7ull, 0x476d57aaa51eb06dull, 0xc052df676d64588full},
-    {"accurate", 0xab3a1277008519f2ull, 0x386e4cc975b19b8bull, 0xb576a874b6090b2cull},
+    {"accurate", 0xf97e551a502b3501ull, 0xfb905527c41e94cbull, 0xce2bdf7456029221ull},
     {"balanced_variance", 0x969a838e5a125e18ull, 0x01d467ad17e294fdull, 0xc9063c845e153b06ull},
-    {"accurate_variance", 0xe8beaa20899edd03ull, 0xb602df814f59eb2full, 0x052bf58ef1d7eabcull},
+    {"accurate_variance", 0x5c6c047052da8c7dull, 0xf5c998caf7208a1cull, 0x3b8cb7294120d5c4ull},
     {"finest_0", 0x3111dcd784e1632eull, 0x2fc896f573e1cbfcull, 0x04da823cd7240e69ull},
     {"finest_2", 0x380fd55279242b9bull, 0x59dec071d445ea9full, 0x078cdb19180c7d86ull},
     {"levels_3_3", 0x602f4fb26accf902ull, 0x01aaad410e71445cull, 0xf9bc0a87bcb29233ull},
@@ -303,9 +303,9 @@ const std::vector<Expected> kGeneratedPairHashes = {
 const std::vector<Expected> kColonFrameHashes = {
     {"balanced", 0xc613bf516bc3ecdbull, 0x6fc355b3187042ddull, 0x35ffd24587942c1full},
     {"fast", 0xf4666ddb2d641744ull, 0x8dc278ca034503d4ull, 0x66d3ffbaa5f54174ull},
-    {"accurate", 0xf76564b9cf6552f1ull, 0x3c378d23ff2f9e4cull, 0xa0c0099922d59b58ull},
+    {"accurate", 0x9f254bed6df8f836ull, 0xf36cb773e701fa67ull, 0xdf1914aa53fb1659ull},
     {"balanced_variance", 0x03ceec8391790055ull, 0xeb29ab6ef25b653full, 0xb4f4a3a6463240e9ull},
-    {"accurate_variance", 0x438fb47baf739473ull, 0xa720fbd50487a818ull, 0x7cad2a2c42033b2eull},
+    {"accurate_variance", 0x7cb75aefcb52c015ull, 0x776b8b7b7b5a4336ull, 0x5d2ad474b979621dull},
     {"finest_0", 0x5144624caf8015e9ull, 0x530bcbbdb1ef6d85ull, 0xf69af0b6cd0e555full},
     {"finest_2", 0x09f78017cb81b9f7ull, 0x87802ff8644fc2e4ull, 0x6839f2e9778c5465ull},
     {"levels_3_3", 0xee76b4716178837full, 0xaf3ba217dc74a831ull, 0x8d6283fbab5aab44ull},

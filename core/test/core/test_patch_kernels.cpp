@@ -292,6 +292,23 @@ TEST(PatchKernels, ClippedSumsMatchTheMaskedPathAtTheImageEdges) {
   EXPECT_GE(partial, 40);  // the cases do reach past the edges
 }
 
+/// A right image of random grey levels inside the pyramid's zero padding,
+/// and its validity (all 0 here, the padding's stays 0), as the masked and
+/// clipped kernels read them.
+struct PaddedRight {
+  cv::Mat1f padded, image;
+  cv::Mat1b valid_padded, valid;
+};
+PaddedRight paddedRight(cv::RNG& rng, int width, int height) {
+  PaddedRight r;
+  r.padded = cv::Mat1f(height, width + 2 * kRightPadding, 0.f);
+  r.image = r.padded.colRange(kRightPadding, kRightPadding + width);
+  rng.fill(r.image, cv::RNG::UNIFORM, 0.f, 255.f);
+  r.valid_padded = cv::Mat1b(height, width + 2 * kRightPadding, uchar(0));
+  r.valid = r.valid_padded.colRange(kRightPadding, kRightPadding + width);
+  return r;
+}
+
 // Every kernel set's masked sums (the fixed-size ones mask lanes by the
 // validity bytes, any non-zero byte valid, and read the zero padding for
 // columns outside the image), with and without the gradient's sums,
@@ -300,11 +317,9 @@ TEST(PatchKernels, ClippedSumsMatchTheMaskedPathAtTheImageEdges) {
 TEST(PatchKernels, EveryIsaMaskedSumsMatchThePerPixelReference) {
   cv::RNG rng(17);
   const int width = 90, height = 48;
-  cv::Mat1f padded(height, width + 2 * kRightPadding, 0.f);
-  cv::Mat1f right = padded.colRange(kRightPadding, kRightPadding + width);
-  rng.fill(right, cv::RNG::UNIFORM, 0.f, 255.f);
-  cv::Mat1b valid_padded(height, width + 2 * kRightPadding, uchar(0));
-  cv::Mat1b valid = valid_padded.colRange(kRightPadding, kRightPadding + width);
+  const PaddedRight padded = paddedRight(rng, width, height);
+  const cv::Mat1f& right = padded.image;
+  cv::Mat1b valid = padded.valid;
   for (int y = 0; y < height; ++y) {
     // One in five invalid; the valid ones any non-zero byte, which counts as 1.
     for (int x = 0; x < width; ++x) valid(y, x) = static_cast<uchar>(rng.uniform(0, 5) * 60);
@@ -373,6 +388,163 @@ TEST(PatchKernels, EveryIsaMaskedSumsMatchThePerPixelReference) {
   EXPECT_GE(sets_checked, 8);
   EXPECT_GE(partial, 40);  // many patches mostly masked or past an edge
   EXPECT_GE(cases, 8 * 45);
+}
+
+// Every kernel set's weighted twin with support weights in the view
+// (docs/method.md, "Support weights"): each sum weighs its pixel's terms, the count is the sum
+// of the weights, against a per-pixel double-precision reference; the masked
+// and clipped paths too; the template constants weighted; and with every
+// weight 1 the same sums as without weights (bit for bit but the variance).
+TEST(PatchKernels, EveryIsaWeighsEachPixelBySupportWeights) {
+  cv::RNG rng(29);
+  const int width = 90, height = 48, y0 = 4;
+  const PaddedRight padded = paddedRight(rng, width, height);
+  const cv::Mat1f& right = padded.image;
+  cv::Mat1b valid = padded.valid;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) valid(y, x) = rng.uniform(0, 6) ? 1 : 0;
+  }
+  int sets_checked = 0, cases = 0;
+  for (KernelIsa isa : {KernelIsa::Scalar, KernelIsa::Baseline, KernelIsa::Avx2}) {
+    if (!kernelIsaAvailable(isa)) continue;
+    for (int p : {4, 8, 12, 16, 24, 32, 10}) {
+      const KernelSet& k = kernelsFor(p, isa);
+      ASSERT_NE(k.weighted, nullptr);
+      const KernelSet& kw = *k.weighted;  // the sums that read the weights
+      ++sets_checked;
+      const size_t n_px = static_cast<size_t>(p * p);
+      std::vector<float> T(n_px), G(n_px), W(n_px), ones(n_px, 1.f);
+      std::vector<uchar> M(n_px);
+      for (float& t : T) t = rng.uniform(0.f, 255.f);
+      for (float& g : G) g = rng.uniform(-20.f, 20.f);
+      for (float& w : W) w = rng.uniform(0.01f, 1.f);
+      for (uchar& m : M) m = rng.uniform(0, 4) ? 1 : 0;
+      const PatchView plain{T.data(), G.data(), static_cast<size_t>(p)};
+      PatchView weighted = plain, unit = plain;
+      weighted.weight = W.data();
+      unit.weight = ones.data();
+      const std::string set = std::string(k.name) + " p=" + std::to_string(p);
+
+      // The weights themselves, alone and with the constants under them.
+      const float centre = T[0], inv_sq = 1.f / 64.f;
+      std::vector<float> got_w(n_px), got_w_too(n_px);
+      k.support_weights(p, plain, centre, inv_sq, got_w.data(), nullptr);
+      for (size_t i = 0; i < n_px; ++i) {
+        const double d = T[i] - centre;
+        EXPECT_NEAR(got_w[i], 1.0 / (1.0 + d * d / 64.0), 1e-6) << set << " pixel " << i;
+      }
+      EXPECT_EQ(got_w[0], 1.f) << set;
+      TemplateSums fused, separate;
+      k.support_weights(p, plain, centre, inv_sq, got_w_too.data(), &fused);
+      EXPECT_EQ(got_w_too, got_w) << set;
+      PatchView with_got_w = plain;
+      with_got_w.weight = got_w.data();
+      kw.template_sums(p, with_got_w, separate);
+      EXPECT_NEAR(fused.g, separate.g, 1e-5 * (std::fabs(separate.g) + n_px)) << set;
+      EXPECT_NEAR(fused.g_sq, separate.g_sq, 1e-5 * separate.g_sq) << set;
+      EXPECT_NEAR(fused.variance, separate.variance, 1e-5 * separate.variance) << set;
+
+      // Template constants: sum w g, sum w g^2, the weighted variance.
+      double sw = 0, sg = 0, sgg = 0, st = 0, stt = 0;
+      for (size_t i = 0; i < n_px; ++i) {
+        sw += W[i], sg += W[i] * G[i], sgg += W[i] * G[i] * G[i], st += W[i] * T[i], stt += W[i] * T[i] * T[i];
+      }
+      TemplateSums constants, plain_constants, unit_constants;
+      kw.template_sums(p, weighted, constants);
+      k.template_sums(p, plain, plain_constants);
+      kw.template_sums(p, unit, unit_constants);
+      // The plain set leaves a view's weights unread (the scalar one serves both).
+      if (&kw != &k) {
+        TemplateSums ignoring;
+        k.template_sums(p, weighted, ignoring);
+        EXPECT_EQ(ignoring.g, plain_constants.g) << set;
+        EXPECT_EQ(ignoring.variance, plain_constants.variance) << set;
+      }
+      EXPECT_NEAR(constants.g, sg, 1e-4 * n_px * 20) << set;
+      EXPECT_NEAR(constants.g_sq, sgg, 1e-5 * sgg) << set;
+      const double variance = stt / sw - (st / sw) * (st / sw);
+      EXPECT_NEAR(constants.variance, variance, 1e-3 * variance) << set;
+      EXPECT_EQ(unit_constants.g, plain_constants.g) << set;
+      EXPECT_EQ(unit_constants.g_sq, plain_constants.g_sq) << set;
+      // (the weights' sum in place of the constant count: the last bit may differ)
+      EXPECT_NEAR(unit_constants.variance, plain_constants.variance, 1e-6 * plain_constants.variance) << set;
+
+      for (int x0 : {0, 30, width - p - 2}) {
+        for (float u : {-3.5f, 0.f, 2.25f, 9.6f, 20.f}) {
+          const SampleSpan span = sampleSpan(x0, u);
+          const int taps = span.frac > 0.f ? 1 : 0;
+          // Reference over the pixels each path sums: all (in the image), those
+          // inside the image (clipped), those valid in both views (masked).
+          struct Sums {
+            double n = 0, sd = 0, sdd = 0, sgd = 0, sg = 0, sgg = 0, abs_d = 0, abs_gd = 0;
+          } all, inside, masked;
+          for (int y = 0; y < p; ++y) {
+            for (int i = 0; i < p; ++i) {
+              const size_t at = static_cast<size_t>(y * p + i);
+              const int xr = span.base + i;
+              const bool in_image = xr >= 0 && xr + taps < width;
+              const double sample = in_image ? (1.0 - span.frac) * right(y0 + y, xr) +
+                                                   (taps ? span.frac * right(y0 + y, xr + 1) : 0.0)
+                                             : 0.0;
+              const double w = W[at], d = sample - T[at], g = G[at];
+              auto add = [&](Sums& s) {
+                s.n += w, s.sd += w * d, s.sdd += w * d * d, s.sgd += w * g * d, s.sg += w * g, s.sgg += w * g * g;
+                s.abs_d += std::fabs(w * d), s.abs_gd += std::fabs(w * g * d);
+              };
+              if (!in_image) continue;
+              add(all);
+              add(inside);
+              if (M[at] && valid(y0 + y, xr) && valid(y0 + y, xr + taps)) add(masked);
+            }
+          }
+          auto expectSums = [&](const ResidualSums& r, const Sums& want, bool gradient, const char* path) {
+            const std::string where = set + " " + path + " x0=" + std::to_string(x0) + " u=" + std::to_string(u);
+            EXPECT_NEAR(r.count, want.n, 1e-5 * p * p) << where;
+            EXPECT_NEAR(r.diff, want.sd, 1e-4 * want.abs_d + 1e-3) << where;
+            EXPECT_NEAR(r.diff_sq, want.sdd, 1e-4 * want.sdd + 1e-3) << where;
+            if (gradient) {
+              EXPECT_NEAR(r.g_diff, want.sgd, 1e-4 * want.abs_gd + 1e-3) << where;
+            }
+          };
+          const bool whole = span.base >= 0 && span.base + p + 1 <= width;
+          if (whole) {
+            ResidualSums r, cost, unit_r, plain_r;
+            kw.sums_all_valid(right[y0], right.step1(), p, span, weighted, r);
+            expectSums(r, all, true, "all valid");
+            kw.sums_all_valid_no_gradient(right[y0], right.step1(), p, span, weighted, cost);
+            EXPECT_EQ(cost.count, r.count) << set;
+            EXPECT_EQ(cost.diff, r.diff) << set;
+            EXPECT_EQ(cost.diff_sq, r.diff_sq) << set;
+            const SampleSpan spans[kMaxBatchSpans] = {span, sampleSpan(x0, u + 0.4f), sampleSpan(x0, u - 1.7f)};
+            ResidualSums batch[kMaxBatchSpans];
+            kw.sums_no_gradient_batch(right[y0], right.step1(), p, spans, 1, weighted, batch);
+            EXPECT_EQ(batch[0].count, cost.count) << set;
+            EXPECT_EQ(batch[0].diff, cost.diff) << set;
+            EXPECT_EQ(batch[0].diff_sq, cost.diff_sq) << set;
+            // Unit weights: the plain sums, bit for bit.
+            kw.sums_all_valid(right[y0], right.step1(), p, span, unit, unit_r);
+            k.sums_all_valid(right[y0], right.step1(), p, span, plain, plain_r);
+            EXPECT_EQ(unit_r.count, plain_r.count) << set;
+            EXPECT_EQ(unit_r.diff, plain_r.diff) << set;
+            EXPECT_EQ(unit_r.diff_sq, plain_r.diff_sq) << set;
+            EXPECT_EQ(unit_r.g_diff, plain_r.g_diff) << set;
+          }
+          ResidualSums clipped, masked_r;
+          kw.sums_clipped(right[y0], right.step1(), p, span, columnsInside(width, p, span), weighted,
+                         /*with_gradient=*/true, clipped);
+          expectSums(clipped, inside, true, "clipped");
+          EXPECT_NEAR(clipped.g, inside.sg, 1e-4 * p * p * 20 + 1e-3) << set;
+          EXPECT_NEAR(clipped.g_sq, inside.sgg, 1e-4 * inside.sgg + 1e-3) << set;
+          kw.sums_masked(right[y0], right.step1(), valid[y0], valid.step1(), width, p, span, weighted, M.data(),
+                        static_cast<size_t>(p), /*with_gradient=*/true, masked_r);
+          expectSums(masked_r, masked, true, "masked");
+          ++cases;
+        }
+      }
+    }
+  }
+  EXPECT_GE(sets_checked, 14);
+  EXPECT_GE(cases, 14 * 15);
 }
 
 }  // namespace

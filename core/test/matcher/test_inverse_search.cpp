@@ -1,6 +1,8 @@
 // The patch search of one level (inverse_search.hpp), on its own: the second
 // look one level coarser that a patch without evidence gets at the finest
-// level (docs/method.md, "A second look one level coarser").
+// level (docs/method.md, "A second look one level coarser"), and the support
+// weights that let a patch beside a depth edge match its centre's surface
+// ("Support weights").
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -130,6 +132,102 @@ TEST(CoarserLook, StaysOffWhereTheCoarserDisparityChangesAcrossTheFootprint) {
   // The same ramp under a limit of 2 level px: the second look runs.
   const SearchResult open = searchLevel1(pyramid, coarse, true, 2.f);
   EXPECT_GT(open.with_evidence, alone.with_evidence);
+}
+
+/// A textured background at `kBackground` px and, in front of it, a brighter
+/// textured strip (input columns 150-229 of the left view) at `kForeground`
+/// px; the right view drawn back to front, so the strip hides what lies
+/// behind it there.
+constexpr int kBackground = 4, kForeground = 24;
+constexpr int kStripBegin = 150, kStripEnd = 230;
+std::pair<cv::Mat, cv::Mat> stripInFrontPair() {
+  cv::RNG rng(3);
+  auto texture = [&](double grey, double spread) {
+    cv::Mat1f t(kH, 2 * kW);
+    rng.fill(t, cv::RNG::NORMAL, 0.0, 1.0);
+    cv::GaussianBlur(t, t, cv::Size(0, 0), 1.5);
+    cv::Scalar mean, stddev;
+    cv::meanStdDev(t, mean, stddev);
+    return cv::Mat1f((t - mean[0]) * (spread / stddev[0]) + grey);
+  };
+  const cv::Mat1f background = texture(60.0, 6.0), strip = texture(170.0, 6.0);
+  cv::Mat1f left(kH, kW), right(kH, kW);
+  for (int y = 0; y < kH; ++y) {
+    for (int x = 0; x < kW; ++x) {
+      const bool on_strip = x >= kStripBegin && x < kStripEnd;
+      left(y, x) = on_strip ? strip(y, x + kW / 2) : background(y, x + kW / 2);
+      // Right pixel xr sees the strip if xr + kForeground lies on it in the left view.
+      const int xl_strip = x + kForeground;
+      right(y, x) = xl_strip >= kStripBegin && xl_strip < kStripEnd ? strip(y, xl_strip + kW / 2)
+                                                                      : background(y, x + kBackground + kW / 2);
+    }
+  }
+  cv::Mat left8, right8;
+  left.convertTo(left8, CV_8U);
+  right.convertTo(right8, CV_8U);
+  return {left8, right8};
+}
+
+// Patches whose centre lies on the background, but whose footprint reaches
+// the strip's right edge (the side both views see): without support weights
+// the strip's edge pulls them to its disparity, and the posterior, which
+// sees that edge match, lets them through; with the weights they match the
+// background their centre sees (and the posterior, on the plain cost, where
+// the strip's edge still mismatches, gives them little say). Measured,
+// centres 0.5-3.5 level px from the edge: of 39 patches, 0 plain / 39
+// weighted within 0.5 level px of the background's disparity; wrong with
+// evidence 39 / 0; away from the edge 390 of 390 right either way.
+TEST(SupportWeights, PatchesBesideADepthEdgeMatchTheSurfaceOfTheirCentre) {
+  const auto [left, right] = stripInFrontPair();
+  StereoPyramid pyramid;
+  pyramid.build(left, right, 4, 1);
+  const PyramidLevel& L = pyramid.level(1);
+  // Start from the truth at level 2 (scale 1/4): the search alone decides.
+  cv::Mat1f coarse(pyramid.level(2).height, pyramid.level(2).width, 0.25f * kBackground);
+  coarse.colRange(kStripBegin / 4, kStripEnd / 4).setTo(0.25f * kForeground);
+  const bdis::MatcherParams params;
+  auto search = [&](float support_grey) {
+    PatchSearch s;
+    s.configure(params);
+    s.allocate(L.width);
+    s.beginLevel(L, kStride, nullptr, 0.f, support_grey);
+    s.searchBand(L, coarse, 0, s.grid().rows());
+    return s;
+  };
+  const PatchSearch plain = search(0.f), weighted = search(bdis::MatcherParams::preset("accurate").support_grey);
+  const float background = 0.5f * kBackground, edge = 0.5f * kStripEnd;  // level 1
+  struct Tally {
+    int patches = 0, right = 0, wrong_with_evidence = 0;
+  };
+  auto tally = [&](const PatchSearch& s, float from, float to) {
+    Tally t;
+    for (int iy = 0; iy < s.grid().rows(); ++iy) {
+      for (int ix = 0; ix < s.grid().columns(); ++ix) {
+        const float centre =
+            static_cast<float>(s.grid().xs[static_cast<size_t>(ix)]) + 0.5f * static_cast<float>(params.patch_size - 1);
+        if (centre - edge < from || centre - edge >= to) continue;
+        const PatchEstimate& e = s.estimates()[static_cast<size_t>(iy * s.grid().columns() + ix)];
+        ++t.patches;
+        const bool right_one = std::fabs(e.disparity - background) <= 0.5f;
+        if (right_one) ++t.right;
+        if (!right_one && e.evidence >= 0.05f) ++t.wrong_with_evidence;
+      }
+    }
+    return t;
+  };
+  // Centres 0.5-3.5 level px right of the edge: 1-4 of the footprint's 8 columns on the strip.
+  const Tally plain_near = tally(plain, 0.5f, 3.5f), weighted_near = tally(weighted, 0.5f, 3.5f);
+  const Tally plain_far = tally(plain, 10.f, 40.f), weighted_far = tally(weighted, 10.f, 40.f);
+  std::printf("[measured] beside the edge (%d patches): right %d plain / %d weighted, wrong with evidence %d / %d; "
+              "away from it (%d): right %d / %d\n",
+              plain_near.patches, plain_near.right, weighted_near.right, plain_near.wrong_with_evidence,
+              weighted_near.wrong_with_evidence, plain_far.patches, plain_far.right, weighted_far.right);
+  ASSERT_GT(plain_near.patches, 30);
+  EXPECT_GE(weighted_near.right, plain_near.right + plain_near.patches * 3 / 4);
+  EXPECT_GT(plain_near.wrong_with_evidence, plain_near.patches / 2);
+  EXPECT_LE(weighted_near.wrong_with_evidence, plain_near.wrong_with_evidence / 4);
+  EXPECT_EQ(weighted_far.right, weighted_far.patches);
+  EXPECT_EQ(plain_far.right, plain_far.patches);
 }
 
 }  // namespace
