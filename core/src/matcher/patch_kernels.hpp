@@ -75,14 +75,27 @@ struct TemplateSums {
 /// TemplateSums of a p x p template, every pixel valid. Grey values enter as
 /// t - t[0], so bright, nearly flat patches lose nothing to cancellation
 /// (255 squared swamps float).
-inline void templateSums(int p, const PatchView& patch, TemplateSums& out) {
+/// The scalar kernels' loops are written once for both kinds of view: each
+/// is a template on `Weighted`, called once per patch by the kernel, so the
+/// plain loops carry no weight.
+template <bool Weighted>
+inline float supportWeightAt(const PatchView& patch, int p, int y, int i) {
+  if constexpr (Weighted) {
+    return patch.weight[y * p + i];
+  } else {
+    return 1.f;
+  }
+}
+
+template <bool Weighted>
+inline void templateSumsOf(int p, const PatchView& patch, TemplateSums& out) {
   const float ref = patch.tmpl[0];
   float sg = 0, sgg = 0, st = 0, stt = 0, sw = 0;
   for (int y = 0; y < p; ++y) {
     const float* t = patch.tmpl + y * patch.stride;
     const float* g = patch.grad + y * patch.stride;
     for (int i = 0; i < p; ++i) {
-      const float w = patch.weight ? patch.weight[y * p + i] : 1.f;
+      const float w = supportWeightAt<Weighted>(patch, p, y, i);
       const float v = t[i] - ref;
       const float wg = w * g[i], wv = w * v;
       sg += wg;
@@ -92,9 +105,13 @@ inline void templateSums(int p, const PatchView& patch, TemplateSums& out) {
       sw += w;
     }
   }
-  const float count = patch.weight ? sw : static_cast<float>(p * p);
+  const float count = Weighted ? sw : static_cast<float>(p * p);
   const float mean = st / count;
   out = {sg, sgg, std::max(0.f, stt / count - mean * mean)};
+}
+
+inline void templateSums(int p, const PatchView& patch, TemplateSums& out) {
+  patch.weight ? templateSumsOf<true>(p, patch, out) : templateSumsOf<false>(p, patch, out);
 }
 
 /// Support weights of a p x p template (`patch`'s grey values; its weight
@@ -129,8 +146,9 @@ inline void interpolateRow(const float* row, int base, float frac, int len, floa
 /// inside the image and valid. `rows` points at column 0 of the patch's first
 /// right-image row, `stride` is the row pitch in floats. Leaves g and g_sq
 /// alone (the caller has them from templateSums).
-inline void sumsAllValid(const float* rows, size_t stride, int p, SampleSpan span,
-                         const PatchView& patch, ResidualSums& out) {
+template <bool Weighted>
+inline void sumsAllValidOf(const float* rows, size_t stride, int p, SampleSpan span, const PatchView& patch,
+                           ResidualSums& out) {
   const float w0 = 1.f - span.frac, w1 = span.frac;
   float sd = 0, sdd = 0, sgd = 0, sw = 0;
   for (int y = 0; y < p; ++y) {
@@ -138,7 +156,7 @@ inline void sumsAllValid(const float* rows, size_t stride, int p, SampleSpan spa
     const float* t = patch.tmpl + y * patch.stride;
     const float* g = patch.grad + y * patch.stride;
     for (int i = 0; i < p; ++i) {
-      const float w = patch.weight ? patch.weight[y * p + i] : 1.f;
+      const float w = supportWeightAt<Weighted>(patch, p, y, i);
       const float d = w0 * r[i] + w1 * r[i + 1] - t[i];
       const float wd = w * d;
       sd += wd;
@@ -147,23 +165,30 @@ inline void sumsAllValid(const float* rows, size_t stride, int p, SampleSpan spa
       sw += w;
     }
   }
-  out.count = patch.weight ? sw : static_cast<float>(p * p);
+  out.count = Weighted ? sw : static_cast<float>(p * p);
   out.diff = sd;
   out.diff_sq = sdd;
   out.g_diff = sgd;
 }
 
+inline void sumsAllValid(const float* rows, size_t stride, int p, SampleSpan span,
+                         const PatchView& patch, ResidualSums& out) {
+  patch.weight ? sumsAllValidOf<true>(rows, stride, p, span, patch, out)
+               : sumsAllValidOf<false>(rows, stride, p, span, patch, out);
+}
+
 /// sumsAllValid without the gradient sum, for a cost alone: count, diff and
 /// diff_sq as sumsAllValid gives them (the same operations), g_diff 0.
-inline void sumsAllValidNoGradient(const float* rows, size_t stride, int p, SampleSpan span,
-                                   const PatchView& patch, ResidualSums& out) {
+template <bool Weighted>
+inline void sumsAllValidNoGradientOf(const float* rows, size_t stride, int p, SampleSpan span,
+                                     const PatchView& patch, ResidualSums& out) {
   const float w0 = 1.f - span.frac, w1 = span.frac;
   float sd = 0, sdd = 0, sw = 0;
   for (int y = 0; y < p; ++y) {
     const float* r = rows + y * stride + span.base;
     const float* t = patch.tmpl + y * patch.stride;
     for (int i = 0; i < p; ++i) {
-      const float w = patch.weight ? patch.weight[y * p + i] : 1.f;
+      const float w = supportWeightAt<Weighted>(patch, p, y, i);
       const float d = w0 * r[i] + w1 * r[i + 1] - t[i];
       const float wd = w * d;
       sd += wd;
@@ -171,10 +196,16 @@ inline void sumsAllValidNoGradient(const float* rows, size_t stride, int p, Samp
       sw += w;
     }
   }
-  out.count = patch.weight ? sw : static_cast<float>(p * p);
+  out.count = Weighted ? sw : static_cast<float>(p * p);
   out.diff = sd;
   out.diff_sq = sdd;
   out.g_diff = 0.f;
+}
+
+inline void sumsAllValidNoGradient(const float* rows, size_t stride, int p, SampleSpan span,
+                                   const PatchView& patch, ResidualSums& out) {
+  patch.weight ? sumsAllValidNoGradientOf<true>(rows, stride, p, span, patch, out)
+               : sumsAllValidNoGradientOf<false>(rows, stride, p, span, patch, out);
 }
 
 /// Most spans one call of sums_no_gradient_batch takes: a patch's own
@@ -239,8 +270,9 @@ inline ColumnRange columnsInside(int width, int p, SampleSpan span) {
 /// Clipped path: every template pixel valid, and the right pixels valid over
 /// `cols`, the columns that stay inside the image (a match near or past its
 /// edge): sums over those columns without per-pixel tests.
-inline void sumsClipped(const float* rows, size_t stride, int p, SampleSpan span, ColumnRange cols,
-                        const PatchView& patch, bool with_gradient, ResidualSums& out) {
+template <bool Weighted>
+inline void sumsClippedOf(const float* rows, size_t stride, int p, SampleSpan span, ColumnRange cols,
+                          const PatchView& patch, bool with_gradient, ResidualSums& out) {
   out = ResidualSums{};
   if (cols.empty()) return;
   const bool two_taps = span.frac > 0.f;
@@ -251,7 +283,7 @@ inline void sumsClipped(const float* rows, size_t stride, int p, SampleSpan span
     const float* t = patch.tmpl + y * patch.stride;
     const float* g = patch.grad + y * patch.stride;
     for (int i = cols.begin; i < cols.end; ++i) {
-      const float w = patch.weight ? patch.weight[y * p + i] : 1.f;
+      const float w = supportWeightAt<Weighted>(patch, p, y, i);
       const float sample = two_taps ? w0 * r[i] + w1 * r[i + 1] : r[i];
       const float d = sample - t[i];
       const float wd = w * d, wg = w * g[i];
@@ -263,8 +295,14 @@ inline void sumsClipped(const float* rows, size_t stride, int p, SampleSpan span
       sw += w;
     }
   }
-  const float count = patch.weight ? sw : static_cast<float>((cols.end - cols.begin) * p);
+  const float count = Weighted ? sw : static_cast<float>((cols.end - cols.begin) * p);
   out = {count, sd, sdd, with_gradient ? sgd : 0.f, with_gradient ? sg : 0.f, with_gradient ? sgg : 0.f};
+}
+
+inline void sumsClipped(const float* rows, size_t stride, int p, SampleSpan span, ColumnRange cols,
+                        const PatchView& patch, bool with_gradient, ResidualSums& out) {
+  patch.weight ? sumsClippedOf<true>(rows, stride, p, span, cols, patch, with_gradient, out)
+               : sumsClippedOf<false>(rows, stride, p, span, cols, patch, with_gradient, out);
 }
 
 /// General path: pixels invalid in the template (M == 0; rows `mask_stride`
@@ -273,10 +311,10 @@ inline void sumsClipped(const float* rows, size_t stride, int p, SampleSpan span
 /// `right_valid`, rows `valid_stride` bytes apart) are left out of every sum.
 /// `rows` and `stride` as for sumsAllValid. Without `with_gradient` the
 /// gradient's sums are 0 and the others the same.
-inline void sumsMasked(const float* rows, size_t stride, const uchar* right_valid,
-                       size_t valid_stride, int width, int p, SampleSpan span,
-                       const PatchView& patch, const uchar* M, size_t mask_stride,
-                       bool with_gradient, ResidualSums& out) {
+template <bool Weighted>
+inline void sumsMaskedOf(const float* rows, size_t stride, const uchar* right_valid, size_t valid_stride,
+                         int width, int p, SampleSpan span, const PatchView& patch, const uchar* M,
+                         size_t mask_stride, bool with_gradient, ResidualSums& out) {
   const bool two_taps = span.frac > 0.f;
   const float w0 = 1.f - span.frac;
   float n = 0, sd = 0, sdd = 0, sgd = 0, sg = 0, sgg = 0;
@@ -290,7 +328,7 @@ inline void sumsMasked(const float* rows, size_t stride, const uchar* right_vali
       const int xr = span.base + i;
       if (!m[i] || xr < 0 || xr + (two_taps ? 1 : 0) >= width) continue;
       if (!rv[xr] || (two_taps && !rv[xr + 1])) continue;
-      const float w = patch.weight ? patch.weight[y * p + i] : 1.f;
+      const float w = supportWeightAt<Weighted>(patch, p, y, i);
       const float sample = two_taps ? w0 * r[xr] + span.frac * r[xr + 1] : r[xr];
       const float d = sample - t[i];
       const float wd = w * d, wg = w * g[i];
@@ -303,6 +341,15 @@ inline void sumsMasked(const float* rows, size_t stride, const uchar* right_vali
     }
   }
   out = with_gradient ? ResidualSums{n, sd, sdd, sgd, sg, sgg} : ResidualSums{n, sd, sdd, 0.f, 0.f, 0.f};
+}
+
+inline void sumsMasked(const float* rows, size_t stride, const uchar* right_valid, size_t valid_stride, int width,
+                       int p, SampleSpan span, const PatchView& patch, const uchar* M, size_t mask_stride,
+                       bool with_gradient, ResidualSums& out) {
+  patch.weight ? sumsMaskedOf<true>(rows, stride, right_valid, valid_stride, width, p, span, patch, M, mask_stride,
+                                    with_gradient, out)
+               : sumsMaskedOf<false>(rows, stride, right_valid, valid_stride, width, p, span, patch, M,
+                                     mask_stride, with_gradient, out);
 }
 
 /// Fusion of one patch: adds posterior * spatial weight w times the
