@@ -130,7 +130,6 @@ void PatchCost::computeSupportWeights(TemplateSums* sums) {
     }
     if (count == 0.f) {
       std::fill(support_weights_.begin(), support_weights_.end(), 1.f);
-      if (sums) kernels_->weighted->template_sums(p_, weighted_view_, *sums);
       return;
     }
     centre = sum / count;

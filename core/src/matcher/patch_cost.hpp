@@ -135,7 +135,8 @@ class PatchCost {
     return weighted_view_;
   }
   /// The current patch's support weights into support_weights_, and with
-  /// `sums` the template's constants under them.
+  /// `sums` (only for a template whose every pixel is valid, as loadPatch
+  /// asks) the template's constants under them.
   void computeSupportWeights(TemplateSums* sums);
 
   const KernelSet* kernels_ = nullptr;
