@@ -54,10 +54,13 @@ struct MatcherParams {
   /// support_grey)^2) in the search's costs and Gauss-Newton steps, g its
   /// grey level and c the patch centre's: a patch straddling an instrument's
   /// outline or a fold's rim matches the surface its centre sees, not the
-  /// stronger edge. Grey levels; 0 = off. Fewer wrong estimates beside
-  /// instruments and on slanted tissue for about a tenth more time
-  /// (docs/method.md, "Support weights"); 8 in accurate.
-  float support_grey = 0.f;
+  /// stronger edge. Grey levels; 0 = off (fast). Half the wrong estimates
+  /// beside instruments (docs/method.md, "Support weights").
+  float support_grey = 8.f;
+  /// Only patches with a pixel more than this many grey levels from their
+  /// centre's (an edge) take the support weights; the others keep the plain
+  /// search and cost nothing more. 0 = every patch (accurate).
+  float support_edge_grey = 24.f;
   // Bayesian patch posterior.
   float min_valid_share = 0.25f;   ///< gamma: patches with fewer valid pixels are discarded
   /// Pixels this bright or brighter in either view (grey level; a specular

@@ -27,10 +27,10 @@ void PatchSearch::configure(const MatcherParams& params) {
 }
 
 void PatchSearch::beginLevel(const PyramidLevel& L, int stride, const PyramidLevel* coarser, float max_change,
-                             float support_grey) {
+                             float support_grey, float support_edge_grey) {
   coarser_ = coarser;
   coarser_max_change_ = max_change;
-  cost_.useSupportWeights(support_grey);
+  cost_.useSupportWeights(support_grey, support_edge_grey);
   grid_.layout(L.width, L.height, p_, stride);
   // Only grown: the finer level has more patches than the coarser one before
   // it, and resizing down and up again would construct them anew every level.
@@ -77,6 +77,7 @@ void PatchSearch::forwardPass(const PyramidLevel& L, const cv::Mat1f& coarse, in
         propagate(u, candidates, neighbourCandidates(k, ix > 0, -1, iy > 0, -nx, candidates));
       }
       estimates_[k].disparity = refinePatch(u);
+      record.support = cost_.supportWeighting();
     }
   }
 }
@@ -101,6 +102,7 @@ void PatchSearch::backwardPass(const PyramidLevel& L, const cv::Mat1f& coarse, i
       const LoadedPatch& record = loaded_[k];
       if (!record.loaded) continue;
       cost_.setPatch(L, grid_.xs[static_cast<size_t>(ix)], y0, record.left_all_valid, record.constants);
+      cost_.recallSupportWeighting(record.support);
       float u = estimates_[k].disparity;
       if (propagation_) {
         float candidates[2];

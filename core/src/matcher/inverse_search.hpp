@@ -48,9 +48,10 @@ class PatchSearch {
   /// whose evidence stays below kCoarserLookBelowEvidence is searched again there, where
   /// the disparity changes by less than `max_change` level px across twice
   /// its footprint. `support_grey` > 0: the search's costs weigh each pixel
-  /// by its grey level's likeness to the patch centre's (PatchCost::useSupportWeights).
+  /// by its grey level's likeness to the patch centre's, in the patches with
+  /// a pixel more than `support_edge_grey` from it (PatchCost::useSupportWeights).
   void beginLevel(const PyramidLevel& L, int stride, const PyramidLevel* coarser = nullptr,
-                  float max_change = 0.f, float support_grey = 0.f);
+                  float max_change = 0.f, float support_grey = 0.f, float support_edge_grey = 0.f);
   /// Forward and backward pass over patch rows [top, bottom) of the level
   /// begun last, each patch starting from `coarse` (the coarser level's
   /// dense disparity, at half this level's scale) or a neighbour's result.
@@ -73,6 +74,7 @@ class PatchSearch {
     TemplateSums constants;
     bool loaded = false;  ///< enough valid pixels to be searched
     bool left_all_valid = false;
+    SupportWeighting support = SupportWeighting::Unknown;  ///< as the forward pass decided it
   };
 
   void forwardPass(const PyramidLevel& L, const cv::Mat1f& coarse, int top, int bottom);

@@ -35,8 +35,10 @@ void PatchCost::configure(const KernelSet& kernels, int patch_size, bool mean_no
                           int window_half_width, float window_step, int band_rows) {
   kept_bands_ = band_rows > 0 ? std::min(band_rows, kMaxKeptBands) : kMaxKeptBands;
   kernels_ = &kernels;
-  search_kernels_ = support_inv_grey_sq_ > 0.f ? kernels.weighted : &kernels;
+  search_kernels_ = &kernels;
   p_ = patch_size;
+  centre_index_[0] = static_cast<size_t>(patch_size - 1) / 2;
+  centre_index_[1] = static_cast<size_t>(patch_size) / 2;
   mean_normalization_ = mean_normalization;
   window_half_width_ = window_half_width;
   window_step_ = window_step;
@@ -61,9 +63,10 @@ void PatchCost::allocate(int max_width) {
   forgetBands();
 }
 
-void PatchCost::useSupportWeights(float grey) {
+void PatchCost::useSupportWeights(float grey, float edge_grey) {
   support_inv_grey_sq_ = grey > 0.f ? 1.f / (grey * grey) : 0.f;
-  search_kernels_ = grey > 0.f ? kernels_->weighted : kernels_;
+  support_edge_sq_ = edge_grey * edge_grey;
+  search_kernels_ = kernels_;
 }
 
 void PatchCost::forgetBands() {
@@ -104,52 +107,81 @@ void PatchCost::setPatch(const PyramidLevel& L, int x0, int y0, bool left_all_va
   cur_.width = L.width;
   cur_.constants = constants;
   if (support_inv_grey_sq_ > 0.f) {
-    // The weights only when a weighted sum is first asked for (weightedView).
+    // The weights only when a sum is first asked for (searchView), unless recalled.
     weighted_view_ = cur_.view;
     weighted_view_.weight = support_weights_.data();
-    support_weights_ready_ = false;
+    support_resolved_ = false;
   }
 }
 
-void PatchCost::computeSupportWeights(TemplateSums* sums) {
+bool PatchCost::supportCentreOfValid(float& centre) const {
   const float* t = cur_.view.tmpl;
   const size_t stride = cur_.view.stride;
-  // The centre: the mean of its (up to) four valid pixels.
-  const size_t c0 = static_cast<size_t>(p_ - 1) / 2, c1 = static_cast<size_t>(p_) / 2;
-  float centre = 0.25f * (t[c0 * stride + c0] + t[c0 * stride + c1] + t[c1 * stride + c0] + t[c1 * stride + c1]);
-  support_weights_ready_ = true;
-  if (!cur_.left_all_valid) {
-    const size_t valid_stride = cur_.level->left_valid.step1();
-    float sum = 0.f, count = 0.f;
-    for (size_t y : {c0, c1}) {
-      for (size_t x : {c0, c1}) {
-        if (!cur_.valid[y * valid_stride + x]) continue;
-        sum += t[y * stride + x];
-        count += 1.f;
-      }
+  const size_t valid_stride = cur_.level->left_valid.step1();
+  float sum = 0.f, count = 0.f;
+  for (size_t y : centre_index_) {
+    for (size_t x : centre_index_) {
+      if (!cur_.valid[y * valid_stride + x]) continue;
+      sum += t[y * stride + x];
+      count += 1.f;
     }
-    if (count == 0.f) {
-      std::fill(support_weights_.begin(), support_weights_.end(), 1.f);
-      return;
-    }
-    centre = sum / count;
   }
+  if (count == 0.f) return false;
+  centre = sum / count;
+  return true;
+}
+
+void PatchCost::searchWeighted(float centre, TemplateSums* sums) {
+  search_view_ = &weighted_view_;
+  search_kernels_ = kernels_->weighted;
   kernels_->support_weights(p_, cur_.view, centre, support_inv_grey_sq_, support_weights_.data(), sums);
+}
+
+void PatchCost::resolveSupportWeights(SupportWeighting known) {
+  support_resolved_ = true;
+  float centre = 0.f;
+  // Without a valid centre there is nothing to be like: every pixel weighs the same.
+  if (known == SupportWeighting::Plain || !supportCentre(centre)) {
+    searchPlain();
+    return;
+  }
+  // Rare here (loadPatch decides the fully valid templates): the scalar test.
+  if (known == SupportWeighting::Unknown && support_edge_sq_ > 0.f &&
+      maxSquaredDeviation(p_, cur_.view, centre) <= support_edge_sq_) {
+    searchPlain();
+    return;
+  }
+  searchWeighted(centre, nullptr);
 }
 
 void PatchCost::loadPatch(const PyramidLevel& L, int x0, int y0, bool left_all_valid) {
   setPatch(L, x0, y0, left_all_valid, cur_.constants);
   if (!left_all_valid) return;
-  // With support weights, the weights and the constants under them in one pass over the template.
   if (support_inv_grey_sq_ > 0.f) {
-    computeSupportWeights(&cur_.constants);
-  } else {
-    kernels_->template_sums(p_, cur_.view, cur_.constants);
+    loadSupportWeighted();
+    return;
   }
+  kernels_->template_sums(p_, cur_.view, cur_.constants);
+}
+
+void PatchCost::loadSupportWeighted() {
+  // The plain constants and how far the template strays from its centre in
+  // one pass; for a patch with an edge, the weights and the constants under
+  // them in another.
+  support_resolved_ = true;
+  float centre = 0.f;
+  supportCentre(centre);
+  if (support_edge_sq_ > 0.f &&
+      kernels_->template_sums_and_deviation(p_, cur_.view, centre, cur_.constants) <= support_edge_sq_) {
+    searchPlain();
+    return;
+  }
+  searchWeighted(centre, &cur_.constants);
 }
 
 void PatchCost::sums(float u, ResidualSums& r, bool with_gradient) {
-  sumsOf(*search_kernels_, weightedView(), u, r, with_gradient);
+  const PatchView& view = searchView();  // first: it picks search_kernels_
+  sumsOf(*search_kernels_, view, u, r, with_gradient);
 }
 
 void PatchCost::sumsOf(const KernelSet& k, const PatchView& view, float u, ResidualSums& r, bool with_gradient) {
@@ -186,7 +218,7 @@ void PatchCost::sumsNearInvalidOrEdge(const KernelSet& k, const PatchView& view,
 
 float PatchCost::templateVariance() {
   if (cur_.left_all_valid) return cur_.constants.variance;
-  const float* weights = weightedView().weight;
+  const float* weights = searchView().weight;
   const float ref = cur_.view.tmpl[0];  // sums of t - t[0]: see templateSums
   const size_t valid_stride = cur_.level->left_valid.step1();
   float sum = 0.f, sum_sq = 0.f, count = 0.f;
@@ -226,7 +258,8 @@ void PatchCost::costs(const float* u, int n, float* out) {
     return;
   }
   ResidualSums r[kMaxBatchSpans];
-  search_kernels_->sums_no_gradient_batch(cur_.right_rows, cur_.right_stride, p_, spans, n, weightedView(), r);
+  const PatchView& view = searchView();  // first: it picks search_kernels_
+  search_kernels_->sums_no_gradient_batch(cur_.right_rows, cur_.right_stride, p_, spans, n, view, r);
   for (int i = 0; i < n; ++i) out[i] = meanSquaredResidual(r[i]);
 }
 

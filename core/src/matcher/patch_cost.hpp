@@ -14,6 +14,13 @@
 namespace bdis {
 namespace detail {
 
+/// Whether a patch's search sums weigh its pixels by their support weights.
+enum class SupportWeighting : unsigned char {
+  Unknown,   ///< not decided yet (decided when a sum is first asked for)
+  Plain,     ///< every pixel weighs 1 (no edge, no valid centre, or the weights off)
+  Weighted,  ///< the support weights
+};
+
 /// The most validity bands a PatchCost keeps: a search band of more patch
 /// rows (or the whole level) reuses the last this many in its backward pass.
 constexpr int kMaxKeptBands = 32;
@@ -31,9 +38,11 @@ class PatchCost {
   /// "Support weights"): each template pixel weighs 1 / (1 + (g - c)^2 /
   /// grey^2) in the search's costs and Gauss-Newton sums and in the
   /// template's constants, g its grey level and c the patch centre's, so a
-  /// patch matches the surface of its centre. 0: every pixel weighs 1. The
-  /// posterior's window costs stay plain either way.
-  void useSupportWeights(float grey);
+  /// patch matches the surface of its centre. 0: every pixel weighs 1. Only
+  /// a patch with a pixel more than `edge_grey` from c (an edge) takes them;
+  /// the others keep the plain search, bit for bit, and pay only that test
+  /// (0: every patch). The posterior's window costs stay plain either way.
+  void useSupportWeights(float grey, float edge_grey = 0.f);
 
   /// Makes the validity band describe level rows y0 .. y0 + p - 1 of L: the
   /// patch row that the following patches lie in. The bands of the last
@@ -48,9 +57,21 @@ class PatchCost {
   /// Makes the patch at (x0, y0) of L current. `constants` are its template
   /// sums when `left_all_valid` (see templateSums), else unused.
   void setPatch(const PyramidLevel& L, int x0, int y0, bool left_all_valid, const TemplateSums& constants);
+  /// After setPatch for a patch that was current before: its
+  /// supportWeighting() then, which spares the test for an edge.
+  void recallSupportWeighting(SupportWeighting weighting) {
+    if (support_inv_grey_sq_ > 0.f && weighting != SupportWeighting::Unknown) resolveSupportWeights(weighting);
+  }
   /// setPatch for a patch first seen: computes its template sums.
   void loadPatch(const PyramidLevel& L, int x0, int y0, bool left_all_valid);
   bool leftAllValid() const { return cur_.left_all_valid; }
+  /// How the current patch's search sums weigh its pixels: Unknown until a
+  /// sum (or loadPatch, for a fully valid template) has decided it.
+  SupportWeighting supportWeighting() const {
+    if (support_inv_grey_sq_ <= 0.f) return SupportWeighting::Plain;
+    if (!support_resolved_) return SupportWeighting::Unknown;
+    return search_view_ == &weighted_view_ ? SupportWeighting::Weighted : SupportWeighting::Plain;
+  }
   const TemplateSums& constants() const { return cur_.constants; }
   int levelWidth() const { return cur_.width; }
 
@@ -127,20 +148,42 @@ class PatchCost {
   /// sums() where the all-valid kernels may not run: near the image edge or invalid pixels.
   void sumsNearInvalidOrEdge(const KernelSet& k, const PatchView& view, SampleSpan span, bool with_gradient,
                              ResidualSums& r);
-  /// The current patch's view with its support weights computed (once per
-  /// patch, when first asked for), or the plain view when they are off.
-  const PatchView& weightedView() {
+  /// The view the search's sums of the current patch read, with
+  /// search_kernels_ the kernels for it: with support weights and an edge in
+  /// the patch, the weighted view (the weights computed once per patch, when
+  /// first asked for) and the weighted twin; else the plain ones.
+  const PatchView& searchView() {
     if (support_inv_grey_sq_ <= 0.f) return cur_.view;
-    if (!support_weights_ready_) computeSupportWeights(nullptr);
-    return weighted_view_;
+    if (!support_resolved_) resolveSupportWeights(SupportWeighting::Unknown);
+    return *search_view_;
   }
-  /// The current patch's support weights into support_weights_, and with
-  /// `sums` (only for a template whose every pixel is valid, as loadPatch
-  /// asks) the template's constants under them.
-  void computeSupportWeights(TemplateSums* sums);
+  /// Whether the current patch takes support weights (`known`, or Unknown:
+  /// whether it spans an edge), and if so its weights into support_weights_.
+  void resolveSupportWeights(SupportWeighting known);
+  /// The grey level the support weights compare with: the mean of the
+  /// patch's (up to) four valid centre pixels; false when none is valid.
+  bool supportCentre(float& centre) const {
+    if (!cur_.left_all_valid) return supportCentreOfValid(centre);
+    const float* t = cur_.view.tmpl;
+    const size_t s = cur_.view.stride, c0 = centre_index_[0], c1 = centre_index_[1];
+    centre = 0.25f * (t[c0 * s + c0] + t[c0 * s + c1] + t[c1 * s + c0] + t[c1 * s + c1]);
+    return true;
+  }
+  bool supportCentreOfValid(float& centre) const;
+  /// loadPatch's template constants with support weights. Out of line, so
+  /// that the plain path's call carries none of its register saves.
+  [[gnu::noinline]] void loadSupportWeighted();
+  /// The current patch's search: plain, or with its support weights around
+  /// `centre` (and with `sums` the template's constants under them).
+  void searchPlain() {
+    search_view_ = &cur_.view;
+    search_kernels_ = kernels_;
+  }
+  void searchWeighted(float centre, TemplateSums* sums);
 
   const KernelSet* kernels_ = nullptr;
-  const KernelSet* search_kernels_ = nullptr;  ///< kernels_, or their weighted twin with support weights
+  /// kernels_, or their weighted twin for a patch with support weights (see searchView)
+  const KernelSet* search_kernels_ = nullptr;
   int p_ = 0;
   bool mean_normalization_ = true;
   int window_half_width_ = 2;
@@ -154,9 +197,12 @@ class PatchCost {
   ValidityBand band_;               ///< the current band (a copy of its slot)
   std::vector<float> row_buf_, window_sum_, window_sq_;  ///< window_costs kernel scratch
   float support_inv_grey_sq_ = 0.f;     ///< 1 / grey^2 of useSupportWeights; 0: off
+  float support_edge_sq_ = 0.f;         ///< edge_grey^2 of useSupportWeights
+  size_t centre_index_[2] = {0, 0};     ///< the rows and columns of the patch's four centre pixels
   std::vector<float> support_weights_;  ///< the current patch's, p x p
-  bool support_weights_ready_ = false;  ///< support_weights_ hold the current patch's
+  bool support_resolved_ = false;       ///< search_view_ and search_kernels_ are the current patch's
   PatchView weighted_view_{};           ///< the current patch's view with support_weights_
+  const PatchView* search_view_ = nullptr;  ///< &cur_.view or &weighted_view_
 };
 
 }  // namespace detail

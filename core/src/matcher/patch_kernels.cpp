@@ -25,6 +25,7 @@ constexpr KernelSet kScalar{"scalar",
                             &accumulatePatch,
                             &templateSums,
                             &supportWeights,
+                            &templateSumsAndDeviation,
                             &kScalar};
 
 bool cpuHasAvx2() {

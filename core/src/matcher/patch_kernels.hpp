@@ -135,6 +135,25 @@ inline void supportWeights(int p, const PatchView& patch, float centre, float in
   }
 }
 
+/// The largest (t - centre)^2 over a p x p template (`patch`'s grey values):
+/// how far its pixels stray from the centre's grey level.
+inline float maxSquaredDeviation(int p, const PatchView& patch, float centre) {
+  float most = 0.f;
+  for (int y = 0; y < p; ++y) {
+    const float* t = patch.tmpl + y * patch.stride;
+    for (int i = 0; i < p; ++i) {
+      const float d = t[i] - centre;
+      most = std::max(most, d * d);
+    }
+  }
+  return most;
+}
+
+inline float templateSumsAndDeviation(int p, const PatchView& patch, float centre, TemplateSums& out) {
+  templateSumsOf<false>(p, patch, out);
+  return maxSquaredDeviation(p, patch, centre);
+}
+
 /// Interpolates `len` samples of a right-image row starting at column `base`.
 inline void interpolateRow(const float* row, int base, float frac, int len, float* out) {
   const float w0 = 1.f - frac;
@@ -410,6 +429,9 @@ struct KernelSet {
   void (*template_sums)(int p, const PatchView& patch, TemplateSums& out);
   void (*support_weights)(int p, const PatchView& patch, float centre, float inv_grey_sq, float* weights,
                           TemplateSums* sums);
+  /// template_sums of a plain view, and in the same pass maxSquaredDeviation
+  /// from `centre` (returned): whether the patch spans an edge.
+  float (*template_sums_and_deviation)(int p, const PatchView& patch, float centre, TemplateSums& out);
   /// The same set for views with support weights: its sums read the view's
   /// weights, while this set's fixed-size sums leave them unread (the plain
   /// path pays nothing for them). The scalar set serves both.

@@ -63,7 +63,8 @@ void SearchPass::matchCoarseLevel(const PyramidLevel& L, int s) {
 void SearchPass::beginFinestLevel(const PyramidLevel& L, int s, const PyramidLevel* coarser) {
   finest_level_ = s;
   search_.beginLevel(L, patchStride(params_.patch_size, params_.overlap), coarser,
-                     kCoarserLookMaxChangePx / static_cast<float>(1 << s), params_.support_grey);
+                     kCoarserLookMaxChangePx / static_cast<float>(1 << s), params_.support_grey,
+                     params_.support_edge_grey);
 }
 
 void SearchPass::searchFinestBand(const PyramidLevel& L, int top, int bottom) {

@@ -434,6 +434,19 @@ TEST(PatchKernels, EveryIsaWeighsEachPixelBySupportWeights) {
         EXPECT_NEAR(got_w[i], 1.0 / (1.0 + d * d / 64.0), 1e-6) << set << " pixel " << i;
       }
       EXPECT_EQ(got_w[0], 1.f) << set;
+      // How far the template strays from the centre, which decides whether
+      // the weights are used, with the plain constants in the same pass.
+      float most = 0.f;
+      for (size_t i = 0; i < n_px; ++i) most = std::max(most, (T[i] - centre) * (T[i] - centre));
+      TemplateSums with_deviation, plain_sums;
+      EXPECT_EQ(k.template_sums_and_deviation(p, plain, centre, with_deviation), most) << set;
+      k.template_sums(p, plain, plain_sums);
+      EXPECT_EQ(with_deviation.g, plain_sums.g) << set;
+      EXPECT_EQ(with_deviation.g_sq, plain_sums.g_sq) << set;
+      EXPECT_EQ(with_deviation.variance, plain_sums.variance) << set;
+      const float last = T[n_px - 1];
+      EXPECT_EQ(k.template_sums_and_deviation(p, plain, last, with_deviation), maxSquaredDeviation(p, plain, last))
+          << set;
       TemplateSums fused, separate;
       k.support_weights(p, plain, centre, inv_sq, got_w_too.data(), &fused);
       EXPECT_EQ(got_w_too, got_w) << set;

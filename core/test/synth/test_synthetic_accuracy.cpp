@@ -239,8 +239,9 @@ TEST(SyntheticBehaviour, InstrumentBoundaryHasFewConfidentOutliers) {
   // took the covering patches' disagreement and the left-right difference
   // into account: 13.7% and 8.7%, the fattened band among the frame's most
   // confident pixels; with those cues and before the slant cue: 0.45% and
-  // 0.74%. Published: wrong at 0.5 or more on 2.24% of the tissue band and
-  // 2.20% of the rim (the bar: 3%), none of the few at 0.9 or more wrong.
+  // 0.74%. Published: wrong at 0.5 or more on 1.00% of the tissue band and
+  // 1.91% of the rim (the bar: 3%), none of the few at 0.9 or more wrong;
+  // 2.24% and 2.20% before the support weights were on in balanced.
   const MatcherRun& run = bdisRun("instrument");
   auto band = [](const SyntheticFrame& f, bool tissue_side) {
     const cv::Mat inst = f.label == bdis::synth::kLabelInstrument;
@@ -354,11 +355,17 @@ TEST(SyntheticBehaviour, ConfidenceRanksTheErrors) {
   // holds few, and the sparsification area stays near the oracle's.
   // Measured (bad2 of the most confident 50 %, of each tenth, least
   // confident first; sparsification area, / oracle's):
-  //   instrument     0.0 %: 32.7  1.3  0.0 0.0 0.0 0.0 0.0 0.0 0.0 0.0; 0.0014, 1.66
-  //   tube           1.1 %: 43.5 19.7 13.3 10.0 5.5 3.4 1.5 0.6 0.3 0.1; 0.0219, 4.42
-  //   dark_periphery 0.0 %: 35.5  9.7  1.9 0.3 0.1 0.0 0.0 0.0 0.0 0.0; 0.0037, 3.15
-  //   dark_tube      5.9 %: 61.3 42.9 32.7 29.1 21.7 14.3 8.7 4.4 1.8 0.4; 0.0755, 2.93
-  //   compressed_dark 0.0 %: 57.3 41.2 26.4 11.9 2.2 0.1 0.0 0.0 0.0 0.0; 0.0232, 2.24
+  //   instrument     0.0 %: 25.3  0.4  0.0 0.0 0.0 0.0 0.0 0.0 0.0 0.0; 0.0010, 1.51
+  //   tube           0.6 %: 26.3 15.5  9.5 6.5 4.4 2.0 0.8 0.1 0.0 0.0; 0.0143, 5.89
+  //   dark_periphery 0.0 %: 35.6  9.8  1.5 0.3 0.0 0.0 0.0 0.0 0.0 0.0; 0.0036, 3.04
+  //   dark_tube      4.5 %: 61.4 42.3 33.2 26.9 16.4 10.6 7.0 3.4 1.2 0.0; 0.0631, 2.87
+  //   compressed_dark 0.0 %: 61.1 43.2 25.2 9.2 1.9 0.2 0.0 0.0 0.0 0.0; 0.0221, 2.09
+  // The support weights (on in balanced) took tube from 1.1 %, area 0.0219
+  // and 4.42 (the figures these lines held before) to the above: every decile
+  // fell, the area by a third, and the ratio rose because the estimates they
+  // mend were ones the confidence already held low, so the oracle's area
+  // shrank more. That is why tube's bar on the area is tight and on the ratio
+  // loose.
   // Before the edge distance cue (an estimate near a jump between
   // neighbours) 1.71, tube 4.48 (area 0.0222), dark periphery 3.29, dark_tube
   // 6.0 % and 2.97, compressed_dark 2.24.
@@ -385,7 +392,7 @@ TEST(SyntheticBehaviour, ConfidenceRanksTheErrors) {
   };
   const std::map<std::string, Bar> bars = {
       {"instrument", {0.01, 2.0, 0.002}},
-      {"tube", {0.02, 4.8, 0.024}},
+      {"tube", {0.01, 6.3, 0.016}},
       {"dark_periphery", {0.01, 3.9, 0.006}},
       {"dark_tube", {0.075, 3.25, 0.085}},
       {"compressed_dark", {0.01, 2.65, 0.03}}};
@@ -470,8 +477,10 @@ TEST(SyntheticBehaviour, VarianceDescribesTheErrorsAsAStandardDeviation) {
   // With compute_variance on the colon-like tube: the share of errors within
   // 1 and 2 sigma where a Gaussian has 68 % and 95 %, and sigma as a ranking
   // of the errors (sparsification ratio, the smallest sigma first). Measured:
-  // 77.5 % and 93.5 %, ranking 4.63 (without the variance's outlier term
-  // 82.0 % and 94.2 %, ranking 8.56).
+  // 78.0 % and 94.3 %, ranking 5.89 (before the support weights in
+  // balanced 77.5 %, 93.5 %, 4.63: they mend the errors sigma held large,
+  // and the oracle's area shrinks more, as for the confidence; without the
+  // variance's outlier term 82.0 % and 94.2 %, ranking 8.56).
   bdis::MatcherParams params;
   params.compute_variance = true;
   bdis::Matcher matcher(params);
@@ -489,7 +498,7 @@ TEST(SyntheticBehaviour, VarianceDescribesTheErrorsAsAStandardDeviation) {
   EXPECT_GE(c.within1, 0.60);
   EXPECT_LE(c.within1, 0.85);
   EXPECT_GE(c.within2, 0.88);
-  EXPECT_LE(c.ranking_ratio, 5.0);
+  EXPECT_LE(c.ranking_ratio, 6.3);
 }
 
 TEST(SyntheticBehaviour, VariationalRefinementRemovesOutliers) {
