@@ -54,8 +54,9 @@ struct MatcherParams {
   /// support_grey)^2) in the search's costs and Gauss-Newton steps, g its
   /// grey level and c the patch centre's: a patch straddling an instrument's
   /// outline or a fold's rim matches the surface its centre sees, not the
-  /// stronger edge. Grey levels; 0 = off (fast). Half the wrong estimates
-  /// beside instruments (docs/method.md, "Support weights").
+  /// stronger edge. Grey levels; 0 = off (fast). A third fewer wrong
+  /// estimates beside instruments, a quarter of the confidently wrong ones
+  /// (docs/method.md, "Support weights").
   float support_grey = 8.f;
   /// Only patches with a pixel more than this many grey levels from their
   /// centre's (an edge) take the support weights; the others keep the plain

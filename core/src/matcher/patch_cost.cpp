@@ -131,10 +131,18 @@ bool PatchCost::supportCentreOfValid(float& centre) const {
   return true;
 }
 
-void PatchCost::searchWeighted(float centre, TemplateSums* sums) {
+bool PatchCost::searchWeighted(float centre, TemplateSums* sums) {
+  TemplateSums weighted;
+  const float support = kernels_->support_weights(p_, cur_.view, centre, support_inv_grey_sq_,
+                                                  support_weights_.data(), sums ? &weighted : nullptr);
+  if (support < kMinSupportShare * static_cast<float>(p_ * p_)) {
+    searchPlain();
+    return false;
+  }
+  if (sums) *sums = weighted;
   search_view_ = &weighted_view_;
   search_kernels_ = kernels_->weighted;
-  kernels_->support_weights(p_, cur_.view, centre, support_inv_grey_sq_, support_weights_.data(), sums);
+  return true;
 }
 
 void PatchCost::resolveSupportWeights(SupportWeighting known) {
@@ -171,12 +179,15 @@ void PatchCost::loadSupportWeighted() {
   support_resolved_ = true;
   float centre = 0.f;
   supportCentre(centre);
-  if (support_edge_sq_ > 0.f &&
-      kernels_->template_sums_and_deviation(p_, cur_.view, centre, cur_.constants) <= support_edge_sq_) {
-    searchPlain();
+  if (support_edge_sq_ > 0.f) {
+    if (kernels_->template_sums_and_deviation(p_, cur_.view, centre, cur_.constants) <= support_edge_sq_) {
+      searchPlain();
+    } else {
+      searchWeighted(centre, &cur_.constants);  // or plain, on the plain constants
+    }
     return;
   }
-  searchWeighted(centre, &cur_.constants);
+  if (!searchWeighted(centre, &cur_.constants)) kernels_->template_sums(p_, cur_.view, cur_.constants);
 }
 
 void PatchCost::sums(float u, ResidualSums& r, bool with_gradient) {

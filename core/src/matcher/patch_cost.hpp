@@ -14,10 +14,17 @@
 namespace bdis {
 namespace detail {
 
+/// A patch whose centre's surface covers less than this share of it (its
+/// support weights' sum over p^2) is centred on a thin structure, such as a
+/// highlight's stripe or a vessel, not on one side of an edge: weighted, it
+/// would match that structure's few pixels alone, which a moving highlight
+/// puts elsewhere in the other view. It keeps the plain search.
+constexpr float kMinSupportShare = 0.5f;
+
 /// Whether a patch's search sums weigh its pixels by their support weights.
 enum class SupportWeighting : unsigned char {
   Unknown,   ///< not decided yet (decided when a sum is first asked for)
-  Plain,     ///< every pixel weighs 1 (no edge, no valid centre, or the weights off)
+  Plain,     ///< every pixel weighs 1 (no edge, a thin structure, no valid centre, or the weights off)
   Weighted,  ///< the support weights
 };
 
@@ -174,12 +181,14 @@ class PatchCost {
   /// that the plain path's call carries none of its register saves.
   [[gnu::noinline]] void loadSupportWeighted();
   /// The current patch's search: plain, or with its support weights around
-  /// `centre` (and with `sums` the template's constants under them).
+  /// `centre` (and with `sums` the template's constants under them) unless
+  /// they cover less than kMinSupportShare of it (then plain, `sums`
+  /// untouched, and false).
   void searchPlain() {
     search_view_ = &cur_.view;
     search_kernels_ = kernels_;
   }
-  void searchWeighted(float centre, TemplateSums* sums);
+  bool searchWeighted(float centre, TemplateSums* sums);
 
   const KernelSet* kernels_ = nullptr;
   /// kernels_, or their weighted twin for a patch with support weights (see searchView)

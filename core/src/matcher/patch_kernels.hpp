@@ -118,14 +118,16 @@ inline void templateSums(int p, const PatchView& patch, TemplateSums& out) {
 /// pointer is not read) into `weights` (p x p, row-major): 1 / (1 + (t -
 /// centre)^2 * inv_grey_sq). With `sums`, in the same pass, the template's
 /// constants under those weights, as templateSums gives them for a view
-/// with them.
-inline void supportWeights(int p, const PatchView& patch, float centre, float inv_grey_sq, float* weights,
-                           TemplateSums* sums) {
+/// with them. Returns the weights' sum.
+inline float supportWeights(int p, const PatchView& patch, float centre, float inv_grey_sq, float* weights,
+                            TemplateSums* sums) {
+  float sum = 0.f;
   for (int y = 0; y < p; ++y) {
     const float* t = patch.tmpl + y * patch.stride;
     for (int i = 0; i < p; ++i) {
       const float d = t[i] - centre;
       weights[y * p + i] = 1.f / (1.f + d * d * inv_grey_sq);
+      sum += weights[y * p + i];
     }
   }
   if (sums) {
@@ -133,6 +135,7 @@ inline void supportWeights(int p, const PatchView& patch, float centre, float in
     weighted.weight = weights;
     templateSums(p, weighted, *sums);
   }
+  return sum;
 }
 
 /// The largest (t - centre)^2 over a p x p template (`patch`'s grey values):
@@ -427,8 +430,8 @@ struct KernelSet {
   void (*accumulate_patch)(int p, const float* spatial, float posterior, float disparity, float evidence,
                            float* num, float* den, float* conf, float* sq, size_t stride);
   void (*template_sums)(int p, const PatchView& patch, TemplateSums& out);
-  void (*support_weights)(int p, const PatchView& patch, float centre, float inv_grey_sq, float* weights,
-                          TemplateSums* sums);
+  float (*support_weights)(int p, const PatchView& patch, float centre, float inv_grey_sq, float* weights,
+                           TemplateSums* sums);
   /// template_sums of a plain view, and in the same pass maxSquaredDeviation
   /// from `centre` (returned): whether the patch spans an edge.
   float (*template_sums_and_deviation)(int p, const PatchView& patch, float centre, TemplateSums& out);

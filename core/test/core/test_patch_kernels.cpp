@@ -428,12 +428,16 @@ TEST(PatchKernels, EveryIsaWeighsEachPixelBySupportWeights) {
       // The weights themselves, alone and with the constants under them.
       const float centre = T[0], inv_sq = 1.f / 64.f;
       std::vector<float> got_w(n_px), got_w_too(n_px);
-      k.support_weights(p, plain, centre, inv_sq, got_w.data(), nullptr);
+      const float support = k.support_weights(p, plain, centre, inv_sq, got_w.data(), nullptr);
+      double expected_support = 0.0;
       for (size_t i = 0; i < n_px; ++i) {
         const double d = T[i] - centre;
         EXPECT_NEAR(got_w[i], 1.0 / (1.0 + d * d / 64.0), 1e-6) << set << " pixel " << i;
+        expected_support += got_w[i];
       }
       EXPECT_EQ(got_w[0], 1.f) << set;
+      // The weights' sum, which tells a thin structure (a small share) from one side of an edge.
+      EXPECT_NEAR(support, expected_support, 1e-5 * expected_support) << set;
       // How far the template strays from the centre, which decides whether
       // the weights are used, with the plain constants in the same pass.
       float most = 0.f;
@@ -448,7 +452,7 @@ TEST(PatchKernels, EveryIsaWeighsEachPixelBySupportWeights) {
       EXPECT_EQ(k.template_sums_and_deviation(p, plain, last, with_deviation), maxSquaredDeviation(p, plain, last))
           << set;
       TemplateSums fused, separate;
-      k.support_weights(p, plain, centre, inv_sq, got_w_too.data(), &fused);
+      EXPECT_EQ(k.support_weights(p, plain, centre, inv_sq, got_w_too.data(), &fused), support) << set;
       EXPECT_EQ(got_w_too, got_w) << set;
       PatchView with_got_w = plain;
       with_got_w.weight = got_w.data();

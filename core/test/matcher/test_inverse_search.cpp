@@ -175,9 +175,11 @@ std::pair<cv::Mat, cv::Mat> stripInFrontPair() {
 // sees that edge match, lets them through; with the weights they match the
 // background their centre sees (and the posterior, on the plain cost, where
 // the strip's edge still mismatches, gives them little say). Measured,
-// centres 0.5-3.5 level px from the edge: of 39 patches, 0 plain / 39
+// centres 0.5-3.5 level px from the edge: of 39 patches, 0 plain / 37
 // weighted within 0.5 level px of the background's disparity; wrong with
-// evidence 39 / 0; away from the edge 390 of 390 right either way.
+// evidence 39 / 2 (the two at the edge itself, whose centre's side covers
+// less than half the patch, keep the plain search); away from the edge 390
+// of 390 right either way.
 TEST(SupportWeights, PatchesBesideADepthEdgeMatchTheSurfaceOfTheirCentre) {
   const auto [left, right] = stripInFrontPair();
   StereoPyramid pyramid;
@@ -238,8 +240,10 @@ TEST(SupportWeights, PatchesBesideADepthEdgeMatchTheSurfaceOfTheirCentre) {
 // search, bit for bit. On weak texture (3 grey levels, so no pixel strays
 // 24 from its centre) every estimate equals the plain one; on strong
 // texture (20 grey levels) patches with an edge take the weights and their
-// estimates move. Measured: 0 of 2028 estimates changed on the weak
-// texture, 1824 on the strong one.
+// estimates move, those centred on one side of it (a random texture's peaks
+// and pits, whose centre's surface covers less than half the patch, stay
+// plain). Measured: 0 of 2028 estimates changed on the weak texture, 475
+// on the strong one (1824 before the thin structures' rule).
 TEST(SupportWeights, OnlyPatchesThatSpanAnEdgeTakeThem) {
   const bdis::MatcherParams defaults;
   ASSERT_GT(defaults.support_grey, 0.f);
@@ -275,7 +279,7 @@ TEST(SupportWeights, OnlyPatchesThatSpanAnEdgeTakeThem) {
               weak_changed, weak_patches, strong_changed, strong_patches);
   ASSERT_GT(weak_patches, 1000);
   EXPECT_EQ(weak_changed, 0);
-  EXPECT_GT(strong_changed, strong_patches / 2);
+  EXPECT_GT(strong_changed, strong_patches / 8);
 }
 
 }  // namespace
