@@ -135,6 +135,18 @@ TEST(CoarserLook, StaysOffWhereTheCoarserDisparityChangesAcrossTheFootprint) {
   EXPECT_GT(open.with_evidence, alone.with_evidence);
 }
 
+/// Level L searched whole from `coarse` with `params`, support weights of
+/// `support_grey` (0: none) and the parameters' edge test.
+PatchSearch searchWithSupportWeights(const PyramidLevel& L, const cv::Mat1f& coarse, const bdis::MatcherParams& params,
+                                     float support_grey) {
+  PatchSearch s;
+  s.configure(params);
+  s.allocate(L.width);
+  s.beginLevel(L, kStride, nullptr, 0.f, support_grey, params.support_edge_grey);
+  s.searchBand(L, coarse, 0, s.grid().rows());
+  return s;
+}
+
 /// A textured background at `kBackground` px and, in front of it, a brighter
 /// textured strip (input columns 150-229 of the left view) at `kForeground`
 /// px; the right view drawn back to front, so the strip hides what lies
@@ -189,16 +201,9 @@ TEST(SupportWeights, PatchesBesideADepthEdgeMatchTheSurfaceOfTheirCentre) {
   cv::Mat1f coarse(pyramid.level(2).height, pyramid.level(2).width, 0.25f * kBackground);
   coarse.colRange(kStripBegin / 4, kStripEnd / 4).setTo(0.25f * kForeground);
   const bdis::MatcherParams params;
-  auto search = [&](float support_grey) {
-    PatchSearch s;
-    s.configure(params);
-    s.allocate(L.width);
-    s.beginLevel(L, kStride, nullptr, 0.f, support_grey, params.support_edge_grey);
-    s.searchBand(L, coarse, 0, s.grid().rows());
-    return s;
-  };
   ASSERT_GT(params.support_grey, 0.f);
-  const PatchSearch plain = search(0.f), weighted = search(params.support_grey);
+  const PatchSearch plain = searchWithSupportWeights(L, coarse, params, 0.f);
+  const PatchSearch weighted = searchWithSupportWeights(L, coarse, params, params.support_grey);
   const float background = 0.5f * kBackground, edge = 0.5f * kStripEnd;  // level 1
   struct Tally {
     int patches = 0, right = 0, wrong_with_evidence = 0;
@@ -255,11 +260,7 @@ TEST(SupportWeights, OnlyPatchesThatSpanAnEdgeTakeThem) {
     const PyramidLevel& L = pyramid.level(1);
     const cv::Mat1f coarse(pyramid.level(2).height, pyramid.level(2).width, 0.25f * kDisparity);
     auto search = [&](float grey) {
-      PatchSearch s;
-      s.configure(defaults);
-      s.allocate(L.width);
-      s.beginLevel(L, kStride, nullptr, 0.f, grey, defaults.support_edge_grey);
-      s.searchBand(L, coarse, 0, s.grid().rows());
+      const PatchSearch s = searchWithSupportWeights(L, coarse, defaults, grey);
       std::vector<PatchEstimate> e = s.estimates();
       e.resize(s.grid().size());
       return e;
