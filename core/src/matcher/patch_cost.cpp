@@ -106,12 +106,8 @@ void PatchCost::setPatch(const PyramidLevel& L, int x0, int y0, bool left_all_va
   cur_.right_stride = rowStride(L.right);
   cur_.width = L.width;
   cur_.constants = constants;
-  if (support_inv_grey_sq_ > 0.f) {
-    // The weights only when a sum is first asked for (searchView), unless recalled.
-    weighted_view_ = cur_.view;
-    weighted_view_.weight = support_weights_.data();
-    support_resolved_ = false;
-  }
+  // With support weights, decided when a sum is first asked for (searchView), unless recalled.
+  support_resolved_ = false;
 }
 
 bool PatchCost::supportCentreOfValid(float& centre) const {
@@ -140,6 +136,8 @@ bool PatchCost::searchWeighted(float centre, TemplateSums* sums) {
     return false;
   }
   if (sums) *sums = weighted;
+  weighted_view_ = cur_.view;
+  weighted_view_.weight = support_weights_.data();
   search_view_ = &weighted_view_;
   search_kernels_ = kernels_->weighted;
   return true;
