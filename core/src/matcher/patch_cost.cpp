@@ -51,6 +51,7 @@ void PatchCost::allocate(int max_width) {
   row_buf_.resize(static_cast<size_t>(p_ + max_window_span + 2));
   window_sum_.resize(window);
   window_sq_.resize(window);
+  window_sums_.resize(window);
   const size_t prefix_len = static_cast<size_t>(max_width) + 1;
   kept_prefix_.resize(2 * static_cast<size_t>(kept_bands_) * prefix_len);
   kept_.resize(static_cast<size_t>(kept_bands_));
@@ -285,6 +286,20 @@ float PatchCost::windowCosts(float u, float* out) {
                              cur_.view, mean_normalization_, row_buf_.data(), window_sum_.data(),
                              window_sq_.data(), out);
       return static_cast<float>(p_ * p_);
+    }
+    // Over invalid pixels: the masked sums of every sample in one pass (a
+    // sample the all-valid or clipped kernels would take gets their sums, bit
+    // for bit). A window that only crosses the image's edge keeps those
+    // kernels, which are cheaper than the masks.
+    if (lo.base >= -kRightPadding && last < cur_.width + kRightPadding &&
+        (!cur_.left_all_valid ||
+         band_.rightInvalid(std::max(lo.base, 0), std::min(last + 1, cur_.width)) > 0)) {
+      const PyramidLevel& L = *cur_.level;
+      kernels_->window_sums_masked(cur_.right_rows, cur_.right_stride, L.rightValidRow(cur_.y0),
+                                   L.right_valid.step1(), L.width, p_, lo.base, lo.frac, 2 * n + 1, step,
+                                   cur_.view, cur_.valid, L.left_valid.step1(), window_sums_.data());
+      for (int j = 0; j <= 2 * n; ++j) out[j] = meanSquaredResidual(window_sums_[static_cast<size_t>(j)]);
+      return window_sums_[static_cast<size_t>(n)].count;
     }
   }
   float valid_at_optimum = 0.f;

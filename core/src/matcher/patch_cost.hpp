@@ -205,6 +205,7 @@ class PatchCost {
   int next_kept_ = 0;               ///< the slot the next band not kept goes to
   ValidityBand band_;               ///< the current band (a copy of its slot)
   std::vector<float> row_buf_, window_sum_, window_sq_;  ///< window_costs kernel scratch
+  std::vector<ResidualSums> window_sums_;                ///< window_sums_masked's output
   float support_inv_grey_sq_ = 0.f;     ///< 1 / grey^2 of useSupportWeights; 0: off
   float support_edge_sq_ = 0.f;         ///< edge_grey^2 of useSupportWeights
   size_t centre_index_[2] = {0, 0};     ///< the rows and columns of the patch's four centre pixels

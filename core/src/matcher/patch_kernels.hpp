@@ -374,6 +374,20 @@ inline void sumsMasked(const float* rows, size_t stride, const uchar* right_vali
                                      mask_stride, with_gradient, out);
 }
 
+/// sumsMasked without the gradient's sums at `samples` spans a whole `step`
+/// px apart that share `frac`, sample j at column base_lo + step * (samples -
+/// 1 - j) (windowCostsAllValid's order): the window costs near invalid pixels
+/// or the image edge, into out[0..samples).
+inline void windowSumsMasked(const float* rows, size_t stride, const uchar* right_valid, size_t valid_stride,
+                             int width, int p, int base_lo, float frac, int samples, int step,
+                             const PatchView& patch, const uchar* M, size_t mask_stride, ResidualSums* out) {
+  for (int j = 0; j < samples; ++j) {
+    const SampleSpan span{base_lo + step * (samples - 1 - j), frac};
+    sumsMaskedOf<false>(rows, stride, right_valid, valid_stride, width, p, span, patch, M, mask_stride,
+                        /*with_gradient=*/false, out[j]);
+  }
+}
+
 /// Fusion of one patch: adds posterior * spatial weight w times the
 /// disparity, w, the evidence and w times the squared disparity to the p x p
 /// pixels at `num`, `den`, `conf`, `sq` (rows `stride` floats apart).
@@ -427,6 +441,14 @@ struct KernelSet {
   void (*sums_masked)(const float* rows, size_t stride, const uchar* right_valid, size_t valid_stride,
                       int width, int p, SampleSpan span, const PatchView& patch, const uchar* M,
                       size_t mask_stride, bool with_gradient, ResidualSums& out);
+  /// The plain sums_masked without the gradient's sums (the view's weights
+  /// unread) at a window's samples, bit for bit, the template read once for
+  /// all of them. The fixed-size version reads every column base_lo ..
+  /// base_lo + p + step * (samples - 1) of the right image and its validity,
+  /// which must lie within the padding.
+  void (*window_sums_masked)(const float* rows, size_t stride, const uchar* right_valid, size_t valid_stride,
+                             int width, int p, int base_lo, float frac, int samples, int step,
+                             const PatchView& patch, const uchar* M, size_t mask_stride, ResidualSums* out);
   void (*accumulate_patch)(int p, const float* spatial, float posterior, float disparity, float evidence,
                            float* num, float* den, float* conf, float* sq, size_t stride);
   void (*template_sums)(int p, const PatchView& patch, TemplateSums& out);

@@ -390,6 +390,69 @@ TEST(PatchKernels, EveryIsaMaskedSumsMatchThePerPixelReference) {
   EXPECT_GE(cases, 8 * 45);
 }
 
+// Every kernel set's window of masked sums gives each sample the masked sums
+// of its own span, bit for bit (the fixed-size kernels run the same
+// operations with the template read once), for windows reaching past either
+// edge of the image and over invalid pixels of both views.
+TEST(PatchKernels, EveryIsaWindowMaskedSumsAreEachSamplesMaskedSums) {
+  cv::RNG rng(23);
+  const int width = 90, height = 48, y0 = 3;
+  const PaddedRight padded = paddedRight(rng, width, height);
+  const cv::Mat1f& right = padded.image;
+  cv::Mat1b valid = padded.valid;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) valid(y, x) = static_cast<uchar>(rng.uniform(0, 6) * 50);
+  }
+  int sets_checked = 0, samples_checked = 0, partial = 0, outside = 0;
+  for (KernelIsa isa : {KernelIsa::Scalar, KernelIsa::Baseline, KernelIsa::Avx2}) {
+    if (!kernelIsaAvailable(isa)) continue;
+    for (int p : {8, 16, 10}) {
+      const KernelSet& k = kernelsFor(p, isa);
+      ++sets_checked;
+      std::vector<float> T(static_cast<size_t>(p * p)), G(T.size());
+      std::vector<uchar> M(T.size());
+      for (float& t : T) t = rng.uniform(0.f, 255.f);
+      for (float& g : G) g = rng.uniform(-20.f, 20.f);  // read by the scalar sums_masked, not by the window
+      for (uchar& m : M) m = static_cast<uchar>(rng.uniform(0, 5) * 60);
+      const PatchView view{T.data(), G.data(), static_cast<size_t>(p)};
+      for (int half_width : {2, 1, 4}) {
+        for (int step : {1, 2}) {
+          const int samples = 2 * half_width + 1, span_len = p + step * (samples - 1);
+          // From past the left edge to past the right one, all within the padding.
+          for (int base_lo = -kRightPadding; base_lo + span_len < width + kRightPadding; base_lo += 7) {
+            for (float frac : {0.f, 0.375f, 0.9f}) {
+              std::vector<ResidualSums> window(static_cast<size_t>(samples));
+              k.window_sums_masked(right[y0], right.step1(), valid[y0], valid.step1(), width, p, base_lo, frac,
+                                   samples, step, view, M.data(), static_cast<size_t>(p), window.data());
+              for (int j = 0; j < samples; ++j) {
+                const SampleSpan span{base_lo + step * (samples - 1 - j), frac};
+                ResidualSums one;
+                k.sums_masked(right[y0], right.step1(), valid[y0], valid.step1(), width, p, span, view, M.data(),
+                              static_cast<size_t>(p), /*with_gradient=*/false, one);
+                const ResidualSums& got = window[static_cast<size_t>(j)];
+                const std::string where = std::string(k.name) + " p=" + std::to_string(p) +
+                                          " base=" + std::to_string(span.base) + " frac=" + std::to_string(frac) +
+                                          " step=" + std::to_string(step) + " sample " + std::to_string(j);
+                EXPECT_EQ(got.count, one.count) << where;
+                EXPECT_EQ(got.diff, one.diff) << where;
+                EXPECT_EQ(got.diff_sq, one.diff_sq) << where;
+                EXPECT_EQ(got.g_diff + got.g + got.g_sq, 0.f) << where;
+                ++samples_checked;
+                if (one.count > 0.f && (span.base < 0 || span.base + p >= width)) ++partial;
+                if (columnsInside(width, p, span).empty()) ++outside;
+              }
+            }
+          }
+        }
+      }
+    }
+  }
+  EXPECT_GE(sets_checked, 6);
+  EXPECT_GE(samples_checked, 6 * 1000);
+  EXPECT_GE(partial, 100);  // samples across an edge of the image
+  EXPECT_GE(outside, 100);  // and samples wholly past it: no sums
+}
+
 // Every kernel set's weighted twin with support weights in the view
 // (docs/method.md, "Support weights"): each sum weighs its pixel's terms, the count is the sum
 // of the weights, against a per-pixel double-precision reference; the masked
