@@ -263,11 +263,24 @@ void PatchCost::costs(const float* u, int n, float* out) {
     lo = std::min(lo, spans[i].base);
     hi = std::max(hi, spans[i].base + p_ + 1);
   }
+  ResidualSums r[kMaxBatchSpans];
   if (!allValidColumns(lo, hi)) {
+    // Over invalid pixels: the masked sums of every span in one pass (a span
+    // the all-valid or clipped kernels would take gets their sums, bit for
+    // bit). Spans that only cross the image's edge keep those kernels.
+    if (lo >= -kRightPadding && hi <= cur_.width + kRightPadding &&
+        (!cur_.left_all_valid || band_.rightInvalid(std::max(lo, 0), std::min(hi, cur_.width)) > 0)) {
+      const PatchView& view = searchView();  // first: it picks search_kernels_
+      const PyramidLevel& L = *cur_.level;
+      search_kernels_->sums_masked_no_gradient_batch(cur_.right_rows, cur_.right_stride, L.rightValidRow(cur_.y0),
+                                                     L.right_valid.step1(), L.width, p_, spans, n, view, cur_.valid,
+                                                     L.left_valid.step1(), r);
+      for (int i = 0; i < n; ++i) out[i] = meanSquaredResidual(r[i]);
+      return;
+    }
     for (int i = 0; i < n; ++i) out[i] = cost(u[i]);
     return;
   }
-  ResidualSums r[kMaxBatchSpans];
   const PatchView& view = searchView();  // first: it picks search_kernels_
   search_kernels_->sums_no_gradient_batch(cur_.right_rows, cur_.right_stride, p_, spans, n, view, r);
   for (int i = 0; i < n; ++i) out[i] = meanSquaredResidual(r[i]);

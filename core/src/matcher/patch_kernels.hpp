@@ -374,6 +374,18 @@ inline void sumsMasked(const float* rows, size_t stride, const uchar* right_vali
                                      mask_stride, with_gradient, out);
 }
 
+/// sumsMasked without the gradient's sums at `n` (1..kMaxBatchSpans) spans of
+/// the same template, into out[0..n): the propagation's costs near invalid pixels.
+inline void sumsMaskedNoGradientBatch(const float* rows, size_t stride, const uchar* right_valid,
+                                      size_t valid_stride, int width, int p, const SampleSpan* spans, int n,
+                                      const PatchView& patch, const uchar* M, size_t mask_stride,
+                                      ResidualSums* out) {
+  for (int i = 0; i < n; ++i) {
+    sumsMasked(rows, stride, right_valid, valid_stride, width, p, spans[i], patch, M, mask_stride,
+               /*with_gradient=*/false, out[i]);
+  }
+}
+
 /// sumsMasked without the gradient's sums at `samples` spans a whole `step`
 /// px apart that share `frac`, sample j at column base_lo + step * (samples -
 /// 1 - j) (windowCostsAllValid's order): the window costs near invalid pixels
@@ -441,6 +453,13 @@ struct KernelSet {
   void (*sums_masked)(const float* rows, size_t stride, const uchar* right_valid, size_t valid_stride,
                       int width, int p, SampleSpan span, const PatchView& patch, const uchar* M,
                       size_t mask_stride, bool with_gradient, ResidualSums& out);
+  /// sums_masked without the gradient's sums at up to kMaxBatchSpans spans,
+  /// bit for bit, the template read once. The fixed-size version reads
+  /// columns base .. base + p of every span, which must lie within the padding.
+  void (*sums_masked_no_gradient_batch)(const float* rows, size_t stride, const uchar* right_valid,
+                                        size_t valid_stride, int width, int p, const SampleSpan* spans, int n,
+                                        const PatchView& patch, const uchar* M, size_t mask_stride,
+                                        ResidualSums* out);
   /// The plain sums_masked without the gradient's sums (the view's weights
   /// unread) at a window's samples, bit for bit, the template read once for
   /// all of them. The fixed-size version reads every column base_lo ..

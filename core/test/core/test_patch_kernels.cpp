@@ -390,6 +390,71 @@ TEST(PatchKernels, EveryIsaMaskedSumsMatchThePerPixelReference) {
   EXPECT_GE(cases, 8 * 45);
 }
 
+// Every kernel set's batch of masked sums, plain and with support weights,
+// gives each span the masked sums of that span alone, bit for bit, for spans
+// with their own interpolation weights reaching past either edge of the
+// image and over invalid pixels of both views.
+TEST(PatchKernels, EveryIsaMaskedBatchSumsAreEachSpansMaskedSums) {
+  cv::RNG rng(31);
+  const int width = 90, height = 48, y0 = 5;
+  const PaddedRight padded = paddedRight(rng, width, height);
+  const cv::Mat1f& right = padded.image;
+  cv::Mat1b valid = padded.valid;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) valid(y, x) = static_cast<uchar>(rng.uniform(0, 6) * 50);
+  }
+  int sets_checked = 0, spans_checked = 0, partial = 0, outside = 0;
+  for (KernelIsa isa : {KernelIsa::Scalar, KernelIsa::Baseline, KernelIsa::Avx2}) {
+    if (!kernelIsaAvailable(isa)) continue;
+    for (int p : {8, 16, 10}) {
+      const KernelSet& k = kernelsFor(p, isa);
+      ASSERT_NE(k.weighted, nullptr);
+      std::vector<float> T(static_cast<size_t>(p * p)), G(T.size()), W(T.size());
+      std::vector<uchar> M(T.size());
+      for (float& t : T) t = rng.uniform(0.f, 255.f);
+      for (float& g : G) g = rng.uniform(-20.f, 20.f);  // read by the scalar sums_masked only
+      for (float& w : W) w = rng.uniform(0.05f, 1.f);
+      for (uchar& m : M) m = static_cast<uchar>(rng.uniform(0, 5) * 60);
+      const PatchView plain{T.data(), G.data(), static_cast<size_t>(p)};
+      const PatchView weighted{T.data(), G.data(), static_cast<size_t>(p), W.data()};
+      for (const KernelSet* set : {&k, k.weighted}) {
+        const PatchView& view = set == &k ? plain : weighted;
+        ++sets_checked;
+        for (int trial = 0; trial < 300; ++trial) {
+          const int n = rng.uniform(1, kMaxBatchSpans + 1);
+          SampleSpan spans[kMaxBatchSpans];
+          for (int i = 0; i < n; ++i) {
+            const float frac = rng.uniform(0, 3) == 0 ? 0.f : rng.uniform(0.f, 1.f);
+            spans[i] = {rng.uniform(-kRightPadding, width + kRightPadding - p), frac};
+          }
+          ResidualSums batch[kMaxBatchSpans];
+          set->sums_masked_no_gradient_batch(right[y0], right.step1(), valid[y0], valid.step1(), width, p, spans, n,
+                                             view, M.data(), static_cast<size_t>(p), batch);
+          for (int i = 0; i < n; ++i) {
+            ResidualSums one;
+            set->sums_masked(right[y0], right.step1(), valid[y0], valid.step1(), width, p, spans[i], view, M.data(),
+                             static_cast<size_t>(p), /*with_gradient=*/false, one);
+            const std::string where = std::string(set->name) + (set == &k ? " plain" : " weighted") +
+                                      " p=" + std::to_string(p) + " base=" + std::to_string(spans[i].base) +
+                                      " frac=" + std::to_string(spans[i].frac) + " span " + std::to_string(i);
+            EXPECT_EQ(batch[i].count, one.count) << where;
+            EXPECT_EQ(batch[i].diff, one.diff) << where;
+            EXPECT_EQ(batch[i].diff_sq, one.diff_sq) << where;
+            EXPECT_EQ(batch[i].g_diff + batch[i].g + batch[i].g_sq, 0.f) << where;
+            ++spans_checked;
+            if (one.count > 0.f && (spans[i].base < 0 || spans[i].base + p >= width)) ++partial;
+            if (columnsInside(width, p, spans[i]).empty()) ++outside;
+          }
+        }
+      }
+    }
+  }
+  EXPECT_GE(sets_checked, 12);
+  EXPECT_GE(spans_checked, 12 * 500);
+  EXPECT_GE(partial, 100);  // spans across an edge of the image
+  EXPECT_GE(outside, 100);  // and spans wholly past it: no sums
+}
+
 // Every kernel set's window of masked sums gives each sample the masked sums
 // of its own span, bit for bit (the fixed-size kernels run the same
 // operations with the template read once), for windows reaching past either
