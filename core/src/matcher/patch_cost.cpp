@@ -130,7 +130,8 @@ bool PatchCost::supportCentreOfValid(float& centre) const {
 
 bool PatchCost::searchWeighted(float centre, TemplateSums* sums) {
   TemplateSums weighted;
-  const float support = kernels_->support_weights(p_, cur_.view, centre, support_inv_grey_sq_,
+  const float inv_grey_sq = support_inv_grey_sq_ / supportContrastShareSq(centre);
+  const float support = kernels_->support_weights(p_, cur_.view, centre, inv_grey_sq,
                                                   support_weights_.data(), sums ? &weighted : nullptr);
   if (support < kMinSupportShare * static_cast<float>(p_ * p_)) {
     searchPlain();
@@ -154,7 +155,7 @@ void PatchCost::resolveSupportWeights(SupportWeighting known) {
   }
   // Rare here (loadPatch decides the fully valid templates): the scalar test.
   if (known == SupportWeighting::Unknown && support_edge_sq_ > 0.f &&
-      maxSquaredDeviation(p_, cur_.view, centre) <= support_edge_sq_) {
+      maxSquaredDeviation(p_, cur_.view, centre) <= support_edge_sq_ * supportContrastShareSq(centre)) {
     searchPlain();
     return;
   }
@@ -179,7 +180,8 @@ void PatchCost::loadSupportWeighted() {
   float centre = 0.f;
   supportCentre(centre);
   if (support_edge_sq_ > 0.f) {
-    if (kernels_->template_sums_and_deviation(p_, cur_.view, centre, cur_.constants) <= support_edge_sq_) {
+    if (kernels_->template_sums_and_deviation(p_, cur_.view, centre, cur_.constants) <=
+        support_edge_sq_ * supportContrastShareSq(centre)) {
       searchPlain();
     } else {
       searchWeighted(centre, &cur_.constants);  // or plain, on the plain constants

@@ -4,6 +4,7 @@
 // call the cheapest kernel the validity of the pixels involved allows.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <limits>
 #include <vector>
@@ -20,6 +21,16 @@ namespace detail {
 /// would match that structure's few pixels alone, which a moving highlight
 /// puts elsewhere in the other view. It keeps the plain search.
 constexpr float kMinSupportShare = 0.5f;
+
+/// The support weights' grey levels (`support_grey`, `support_edge_grey`)
+/// hold for a patch whose centre is at least this bright. Below it they
+/// scale with the centre's grey level: the same contrast between two
+/// surfaces, an instrument and the tissue behind it, spans fewer grey levels
+/// in the dark (the lit tissue they were set on lies mostly above it).
+constexpr float kSupportFullContrastGrey = 64.f;
+/// ... down to this share of them (2 and 6 grey levels at the defaults),
+/// about the noise of a dark pixel: a finer grey step is noise, not an edge.
+constexpr float kSupportMinContrastShare = 0.25f;
 
 /// Whether a patch's search sums weigh its pixels by their support weights.
 enum class SupportWeighting : unsigned char {
@@ -177,6 +188,12 @@ class PatchCost {
     return true;
   }
   bool supportCentreOfValid(float& centre) const;
+  /// The square of the share of the support weights' grey levels that holds
+  /// at a centre of grey level `centre` (kSupportFullContrastGrey).
+  static float supportContrastShareSq(float centre) {
+    const float share = std::clamp(centre * (1.f / kSupportFullContrastGrey), kSupportMinContrastShare, 1.f);
+    return share * share;
+  }
   /// loadPatch's template constants with support weights. Out of line, so
   /// that the plain path's call carries none of its register saves.
   [[gnu::noinline]] void loadSupportWeighted();

@@ -150,10 +150,12 @@ PatchSearch searchWithSupportWeights(const PyramidLevel& L, const cv::Mat1f& coa
 /// A textured background at `kBackground` px and, in front of it, a brighter
 /// textured strip (input columns 150-229 of the left view) at `kForeground`
 /// px; the right view drawn back to front, so the strip hides what lies
-/// behind it there.
+/// behind it there. Grey levels: the background's and the strip's means and
+/// their texture's standard deviation.
 constexpr int kBackground = 4, kForeground = 24;
 constexpr int kStripBegin = 150, kStripEnd = 230;
-std::pair<cv::Mat, cv::Mat> stripInFrontPair() {
+std::pair<cv::Mat, cv::Mat> stripInFrontPair(double background_grey = 60.0, double strip_grey = 170.0,
+                                             double spread = 6.0) {
   cv::RNG rng(3);
   auto texture = [&](double grey, double spread) {
     cv::Mat1f t(kH, 2 * kW);
@@ -163,7 +165,7 @@ std::pair<cv::Mat, cv::Mat> stripInFrontPair() {
     cv::meanStdDev(t, mean, stddev);
     return cv::Mat1f((t - mean[0]) * (spread / stddev[0]) + grey);
   };
-  const cv::Mat1f background = texture(60.0, 6.0), strip = texture(170.0, 6.0);
+  const cv::Mat1f background = texture(background_grey, spread), strip = texture(strip_grey, spread);
   cv::Mat1f left(kH, kW), right(kH, kW);
   for (int y = 0; y < kH; ++y) {
     for (int x = 0; x < kW; ++x) {
@@ -181,35 +183,30 @@ std::pair<cv::Mat, cv::Mat> stripInFrontPair() {
   return {left8, right8};
 }
 
-// Patches whose centre lies on the background, but whose footprint reaches
-// the strip's right edge (the side both views see): without support weights
-// the strip's edge pulls them to its disparity, and the posterior, which
-// sees that edge match, lets them through; with the weights they match the
-// background their centre sees (and the posterior, on the plain cost, where
-// the strip's edge still mismatches, gives them little say). Measured,
-// centres 0.5-3.5 level px from the edge: of 39 patches, 0 plain / 37
-// weighted within 0.5 level px of the background's disparity; wrong with
-// evidence 39 / 2 (the two at the edge itself, whose centre's side covers
-// less than half the patch, keep the plain search); away from the edge 390
-// of 390 right either way.
-TEST(SupportWeights, PatchesBesideADepthEdgeMatchTheSurfaceOfTheirCentre) {
-  const auto [left, right] = stripInFrontPair();
+/// Patches near the strip's right edge (centres 0.5-3.5 level px right of
+/// it: 1-4 of the footprint's 8 columns on the strip) and away from it
+/// (10-40 px), searched plain and with the default support weights from the
+/// truth one level coarser: how many end within 0.5 level px of the
+/// background's disparity, and how many are wrong with evidence >= 0.05.
+struct StripEdgeTally {
+  int patches = 0, right = 0, wrong_with_evidence = 0;
+};
+struct StripEdgeSearch {
+  StripEdgeTally plain_near, weighted_near, plain_far, weighted_far;
+};
+StripEdgeSearch searchBesideTheStripEdge(const std::pair<cv::Mat, cv::Mat>& pair) {
   StereoPyramid pyramid;
-  pyramid.build(left, right, 4, 1);
+  pyramid.build(pair.first, pair.second, 4, 1);
   const PyramidLevel& L = pyramid.level(1);
   // Start from the truth at level 2 (scale 1/4): the search alone decides.
   cv::Mat1f coarse(pyramid.level(2).height, pyramid.level(2).width, 0.25f * kBackground);
   coarse.colRange(kStripBegin / 4, kStripEnd / 4).setTo(0.25f * kForeground);
   const bdis::MatcherParams params;
-  ASSERT_GT(params.support_grey, 0.f);
   const PatchSearch plain = searchWithSupportWeights(L, coarse, params, 0.f);
   const PatchSearch weighted = searchWithSupportWeights(L, coarse, params, params.support_grey);
   const float background = 0.5f * kBackground, edge = 0.5f * kStripEnd;  // level 1
-  struct Tally {
-    int patches = 0, right = 0, wrong_with_evidence = 0;
-  };
   auto tally = [&](const PatchSearch& s, float from, float to) {
-    Tally t;
+    StripEdgeTally t;
     for (int iy = 0; iy < s.grid().rows(); ++iy) {
       for (int ix = 0; ix < s.grid().columns(); ++ix) {
         const float centre =
@@ -224,31 +221,69 @@ TEST(SupportWeights, PatchesBesideADepthEdgeMatchTheSurfaceOfTheirCentre) {
     }
     return t;
   };
-  // Centres 0.5-3.5 level px right of the edge: 1-4 of the footprint's 8 columns on the strip.
-  const Tally plain_near = tally(plain, 0.5f, 3.5f), weighted_near = tally(weighted, 0.5f, 3.5f);
-  const Tally plain_far = tally(plain, 10.f, 40.f), weighted_far = tally(weighted, 10.f, 40.f);
+  return {tally(plain, 0.5f, 3.5f), tally(weighted, 0.5f, 3.5f), tally(plain, 10.f, 40.f),
+          tally(weighted, 10.f, 40.f)};
+}
+
+void printStripEdgeSearch(const StripEdgeSearch& r) {
   std::printf("[measured] beside the edge (%d patches): right %d plain / %d weighted, wrong with evidence %d / %d; "
               "away from it (%d): right %d / %d\n",
-              plain_near.patches, plain_near.right, weighted_near.right, plain_near.wrong_with_evidence,
-              weighted_near.wrong_with_evidence, plain_far.patches, plain_far.right, weighted_far.right);
-  ASSERT_GT(plain_near.patches, 30);
-  EXPECT_GE(weighted_near.right, plain_near.right + plain_near.patches * 3 / 4);
-  EXPECT_GT(plain_near.wrong_with_evidence, plain_near.patches / 2);
-  EXPECT_LE(weighted_near.wrong_with_evidence, plain_near.wrong_with_evidence / 4);
-  EXPECT_EQ(weighted_far.right, weighted_far.patches);
-  EXPECT_EQ(plain_far.right, plain_far.patches);
+              r.plain_near.patches, r.plain_near.right, r.weighted_near.right, r.plain_near.wrong_with_evidence,
+              r.weighted_near.wrong_with_evidence, r.plain_far.patches, r.plain_far.right, r.weighted_far.right);
+}
+
+// Patches whose centre lies on the background, but whose footprint reaches
+// the strip's right edge (the side both views see): without support weights
+// the strip's edge pulls them to its disparity, and the posterior, which
+// sees that edge match, lets them through; with the weights they match the
+// background their centre sees (and the posterior, on the plain cost, where
+// the strip's edge still mismatches, gives them little say). Measured: of
+// 39 patches beside the edge, 0 plain / 34 weighted within 0.5 level px of
+// the background's disparity; wrong with evidence 39 / 5 (those at the edge
+// itself, whose centre's side covers less than half the patch, keep the
+// plain search); away from the edge 390 of 390 right either way. (37 and 2
+// before the weights' grey levels scaled with a centre darker than 64: the
+// background's 60 takes 0.94 of them.)
+TEST(SupportWeights, PatchesBesideADepthEdgeMatchTheSurfaceOfTheirCentre) {
+  ASSERT_GT(bdis::MatcherParams().support_grey, 0.f);
+  const StripEdgeSearch r = searchBesideTheStripEdge(stripInFrontPair());
+  printStripEdgeSearch(r);
+  ASSERT_GT(r.plain_near.patches, 30);
+  EXPECT_GE(r.weighted_near.right, r.plain_near.right + r.plain_near.patches * 3 / 4);
+  EXPECT_GT(r.plain_near.wrong_with_evidence, r.plain_near.patches / 2);
+  EXPECT_LE(r.weighted_near.wrong_with_evidence, r.plain_near.wrong_with_evidence / 4);
+  EXPECT_EQ(r.weighted_far.right, r.weighted_far.patches);
+  EXPECT_EQ(r.plain_far.right, r.plain_far.patches);
+}
+
+// The same scene in the dark, as an instrument beside dark tissue: the
+// background at 12 grey levels, the strip at 28, texture 2. The edge is 16
+// grey levels, below the 24 the edge test asks of a lit patch; scaled with
+// the centre's grey level (a quarter at 12: 6, and the weights' 8 to 2) it
+// is an edge, and the patches beside it match the background. With the
+// thresholds the lit patches take, none would take the weights and the
+// weighted search would be the plain one (0 of 39 right, as plain). Measured: 0 plain / 29
+// weighted right, wrong with evidence 39 / 10; away from the edge 390 of 390 right either way.
+TEST(SupportWeights, InTheDarkPatchesBesideADepthEdgeStillMatchTheirCentre) {
+  const StripEdgeSearch r = searchBesideTheStripEdge(stripInFrontPair(12.0, 28.0, 2.0));
+  printStripEdgeSearch(r);
+  ASSERT_GT(r.plain_near.patches, 30);
+  EXPECT_GT(r.plain_near.wrong_with_evidence, r.plain_near.patches / 2);
+  EXPECT_GE(r.weighted_near.right, r.plain_near.right + r.plain_near.patches / 2);
+  EXPECT_LE(r.weighted_near.wrong_with_evidence, r.plain_near.wrong_with_evidence / 2);
 }
 
 // The weights cost a pass over the template and weighted sums, and change
 // little where no pixel strays far from the centre's grey level: a patch
 // whose pixels all lie within support_edge_grey of it keeps the plain
 // search, bit for bit. On weak texture (3 grey levels, so no pixel strays
-// 24 from its centre) every estimate equals the plain one; on strong
+// 22.5 from its centre, the edge test at its grey level of 60) every estimate equals the plain one; on strong
 // texture (20 grey levels) patches with an edge take the weights and their
 // estimates move, those centred on one side of it (a random texture's peaks
 // and pits, whose centre's surface covers less than half the patch, stay
-// plain). Measured: 0 of 2028 estimates changed on the weak texture, 475
-// on the strong one (1824 before the thin structures' rule).
+// plain). Measured: 0 of 2028 estimates changed on the weak texture, 375
+// on the strong one (1824 before the thin structures' rule, 475 before the
+// grey levels scaled with a centre darker than 64: the texture sits at 60).
 TEST(SupportWeights, OnlyPatchesThatSpanAnEdgeTakeThem) {
   const bdis::MatcherParams defaults;
   ASSERT_GT(defaults.support_grey, 0.f);

@@ -230,6 +230,16 @@ TEST(SyntheticBehaviour, TexturelessPatchGetsLowConfidenceNotConfidentWrongDepth
   EXPECT_LT(patch.meanConfidence(), 0.2 * rest.meanConfidence());
 }
 
+/// The 12 px band on either side of a frame's instrument outline: the tissue
+/// next to it (where foreground fattening strikes) or the instrument's rim.
+cv::Mat instrumentBand(const SyntheticFrame& f, bool tissue_side) {
+  const cv::Mat inst = f.label == bdis::synth::kLabelInstrument;
+  cv::Mat grown, shrunk;
+  cv::dilate(inst, grown, cv::Mat(), cv::Point(-1, -1), 12);
+  cv::erode(inst, shrunk, cv::Mat(), cv::Point(-1, -1), 12);
+  return tissue_side ? (grown & ~inst) : (inst & ~shrunk);
+}
+
 TEST(SyntheticBehaviour, InstrumentBoundaryHasFewConfidentOutliers) {
   // Bands of 12 px on either side of the instrument's outline (tissue next to
   // it, where foreground fattening strikes, and the instrument's rim).
@@ -243,13 +253,7 @@ TEST(SyntheticBehaviour, InstrumentBoundaryHasFewConfidentOutliers) {
   // 1.85% of the rim (the bar: 3%), none of the few at 0.9 or more wrong;
   // 2.24% and 2.20% before the support weights were on in balanced.
   const MatcherRun& run = bdisRun("instrument");
-  auto band = [](const SyntheticFrame& f, bool tissue_side) {
-    const cv::Mat inst = f.label == bdis::synth::kLabelInstrument;
-    cv::Mat grown, shrunk;
-    cv::dilate(inst, grown, cv::Mat(), cv::Point(-1, -1), 12);
-    cv::erode(inst, shrunk, cv::Mat(), cv::Point(-1, -1), 12);
-    return tissue_side ? (grown & ~inst) : (inst & ~shrunk);
-  };
+  auto band = instrumentBand;
   const RegionStats tissue = regionStats(run, [&](const SyntheticFrame& f) { return band(f, true); });
   const RegionStats rim = regionStats(run, [&](const SyntheticFrame& f) { return band(f, false); });
   const RegionStats away = regionStats(run, [](const SyntheticFrame& f) {
@@ -288,6 +292,26 @@ TEST(SyntheticBehaviour, InstrumentBoundaryHasFewConfidentOutliers) {
   EXPECT_EQ(bands.tissue.confident_bad2, published_tissue.at_half.confident_bad2);
   EXPECT_EQ(bands.rim.scorable, published_rim.at_half.pixels);
   EXPECT_EQ(bands.rim.confident_bad2, published_rim.at_half.confident_bad2);
+}
+
+TEST(SyntheticBehaviour, InstrumentBoundaryInTheDarkHasFewerConfidentOutliers) {
+  // dark_tube: the instrument and the tissue behind it at 9 and 16 grey
+  // levels, an edge of a few grey levels that the lit thresholds of the
+  // support weights do not see; scaled with the centre's grey level they
+  // do. Published, wrong at 0.5 or more: 9.34% of the tissue band and
+  // 14.22% of the rim (0.27% and 2.08% at 0.9 or more); with the lit
+  // thresholds in the dark too, 20.32% and 18.54%. Still far above the lit
+  // instrument's bar (3%): the dark instrument's wrong rim is mostly its
+  // shaft's moving sheen, which no grey-level weight tells from texture.
+  const PublishedRegionStats tissue =
+      publishedRegionStats("dark_tube", [](const SyntheticFrame& f) { return instrumentBand(f, true); });
+  const PublishedRegionStats rim =
+      publishedRegionStats("dark_tube", [](const SyntheticFrame& f) { return instrumentBand(f, false); });
+  printPublished("dark_tube: tissue within 12 px", tissue);
+  printPublished("dark_tube: tool rim", rim);
+  EXPECT_GT(tissue.at_half.pixels, 5000);
+  EXPECT_LE(tissue.at_half.share(tissue.at_half.confident_bad2), 0.12);
+  EXPECT_LE(rim.at_half.share(rim.at_half.confident_bad2), 0.165);
 }
 
 TEST(SyntheticBehaviour, DarkPeripheryLowersConfidenceRatherThanGuessing) {
