@@ -390,6 +390,23 @@ TEST(PatchKernels, EveryIsaMaskedSumsMatchThePerPixelReference) {
   EXPECT_GE(cases, 8 * 45);
 }
 
+/// paddedRight with one pixel in six invalid; the valid ones any non-zero byte.
+PaddedRight paddedRightWithInvalidPixels(cv::RNG& rng, int width, int height) {
+  PaddedRight r = paddedRight(rng, width, height);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) r.valid(y, x) = static_cast<uchar>(rng.uniform(0, 6) * 50);
+  }
+  return r;
+}
+
+/// A cost's masked sums, bit for bit `want`'s, and no gradient's.
+void expectTheseMaskedSums(const ResidualSums& got, const ResidualSums& want, const std::string& where) {
+  EXPECT_EQ(got.count, want.count) << where;
+  EXPECT_EQ(got.diff, want.diff) << where;
+  EXPECT_EQ(got.diff_sq, want.diff_sq) << where;
+  EXPECT_EQ(got.g_diff + got.g + got.g_sq, 0.f) << where;
+}
+
 // Every kernel set's batch of masked sums, plain and with support weights,
 // gives each span the masked sums of that span alone, bit for bit, for spans
 // with their own interpolation weights reaching past either edge of the
@@ -397,12 +414,9 @@ TEST(PatchKernels, EveryIsaMaskedSumsMatchThePerPixelReference) {
 TEST(PatchKernels, EveryIsaMaskedBatchSumsAreEachSpansMaskedSums) {
   cv::RNG rng(31);
   const int width = 90, height = 48, y0 = 5;
-  const PaddedRight padded = paddedRight(rng, width, height);
+  const PaddedRight padded = paddedRightWithInvalidPixels(rng, width, height);
   const cv::Mat1f& right = padded.image;
-  cv::Mat1b valid = padded.valid;
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) valid(y, x) = static_cast<uchar>(rng.uniform(0, 6) * 50);
-  }
+  const cv::Mat1b& valid = padded.valid;
   int sets_checked = 0, spans_checked = 0, partial = 0, outside = 0;
   for (KernelIsa isa : {KernelIsa::Scalar, KernelIsa::Baseline, KernelIsa::Avx2}) {
     if (!kernelIsaAvailable(isa)) continue;
@@ -437,10 +451,7 @@ TEST(PatchKernels, EveryIsaMaskedBatchSumsAreEachSpansMaskedSums) {
             const std::string where = std::string(set->name) + (set == &k ? " plain" : " weighted") +
                                       " p=" + std::to_string(p) + " base=" + std::to_string(spans[i].base) +
                                       " frac=" + std::to_string(spans[i].frac) + " span " + std::to_string(i);
-            EXPECT_EQ(batch[i].count, one.count) << where;
-            EXPECT_EQ(batch[i].diff, one.diff) << where;
-            EXPECT_EQ(batch[i].diff_sq, one.diff_sq) << where;
-            EXPECT_EQ(batch[i].g_diff + batch[i].g + batch[i].g_sq, 0.f) << where;
+            expectTheseMaskedSums(batch[i], one, where);
             ++spans_checked;
             if (one.count > 0.f && (spans[i].base < 0 || spans[i].base + p >= width)) ++partial;
             if (columnsInside(width, p, spans[i]).empty()) ++outside;
@@ -462,12 +473,9 @@ TEST(PatchKernels, EveryIsaMaskedBatchSumsAreEachSpansMaskedSums) {
 TEST(PatchKernels, EveryIsaWindowMaskedSumsAreEachSamplesMaskedSums) {
   cv::RNG rng(23);
   const int width = 90, height = 48, y0 = 3;
-  const PaddedRight padded = paddedRight(rng, width, height);
+  const PaddedRight padded = paddedRightWithInvalidPixels(rng, width, height);
   const cv::Mat1f& right = padded.image;
-  cv::Mat1b valid = padded.valid;
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) valid(y, x) = static_cast<uchar>(rng.uniform(0, 6) * 50);
-  }
+  const cv::Mat1b& valid = padded.valid;
   int sets_checked = 0, samples_checked = 0, partial = 0, outside = 0;
   for (KernelIsa isa : {KernelIsa::Scalar, KernelIsa::Baseline, KernelIsa::Avx2}) {
     if (!kernelIsaAvailable(isa)) continue;
@@ -498,10 +506,7 @@ TEST(PatchKernels, EveryIsaWindowMaskedSumsAreEachSamplesMaskedSums) {
                 const std::string where = std::string(k.name) + " p=" + std::to_string(p) +
                                           " base=" + std::to_string(span.base) + " frac=" + std::to_string(frac) +
                                           " step=" + std::to_string(step) + " sample " + std::to_string(j);
-                EXPECT_EQ(got.count, one.count) << where;
-                EXPECT_EQ(got.diff, one.diff) << where;
-                EXPECT_EQ(got.diff_sq, one.diff_sq) << where;
-                EXPECT_EQ(got.g_diff + got.g + got.g_sq, 0.f) << where;
+                expectTheseMaskedSums(got, one, where);
                 ++samples_checked;
                 if (one.count > 0.f && (span.base < 0 || span.base + p >= width)) ++partial;
                 if (columnsInside(width, p, span).empty()) ++outside;
