@@ -81,7 +81,8 @@ const std::vector<ParamField>& paramFields() {
       field("coarser_look", &MatcherParams::coarser_look, 0, 1,
             "finest level: a patch without evidence searches again one level coarser, on twice its footprint"),
       field("support_grey", &MatcherParams::support_grey, 0.0, 255.0,
-            "finest level: a pixel g grey levels from its patch centre weighs 1 / (1 + (g / support_grey)^2), so patches beside an edge match their centre's surface; 0 = off"),
+            "finest level: a pixel g grey levels from its patch centre weighs 1 / (1 + (g / h)^2), h this "
+            "(scaled below a centre of 64), so patches beside an edge match their centre; 0 = off"),
       field("support_edge_grey", &MatcherParams::support_edge_grey, 0.0, 255.0,
             "support weights only in patches with a pixel this many grey levels from the centre's (an edge); 0 = every patch"),
       field("min_valid_share", &MatcherParams::min_valid_share, 0.0, 1.0,

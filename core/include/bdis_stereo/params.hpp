@@ -54,11 +54,11 @@ struct MatcherParams {
   /// support_grey)^2) in the search's costs and Gauss-Newton steps, g its
   /// grey level and c the patch centre's: a patch straddling an instrument's
   /// outline or a fold's rim matches the surface its centre sees, not the
-  /// stronger edge. Grey levels at a centre of 96 and brighter; darker
+  /// stronger edge. Grey levels at a centre of 64 and brighter; darker
   /// centres scale it (and support_edge_grey) with their grey level, down to
-  /// a quarter: the same contrast spans fewer grey levels in the dark. 0 = off (fast). A third fewer wrong
-  /// estimates beside instruments, a quarter of the confidently wrong ones
-  /// (docs/method.md, "Support weights").
+  /// a quarter: the same contrast spans fewer grey levels in the dark.
+  /// 0 = off (fast). A third fewer wrong estimates beside instruments, a
+  /// quarter of the confidently wrong ones (docs/method.md, "Support weights").
   float support_grey = 8.f;
   /// Only patches with a pixel more than this many grey levels from their
   /// centre's (an edge) take the support weights; the others keep the plain
