@@ -161,7 +161,7 @@ const PresetEntry kPresets[] = {
     {"balanced", "the default settings"},
     {"accurate",
      "stride 2, the left-right check as dense with tolerance 2, two variational refinement steps and "
-     "support weights in every patch: about 2.5 times the time of balanced"},
+     "support weights in every patch: about 3 times the time of balanced"},
 };
 
 std::string presetList() {

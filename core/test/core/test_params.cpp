@@ -599,8 +599,8 @@ TEST(ParamsPresets, EveryPresetHasADescription) {
   for (const std::string& name : MatcherParams::presetNames()) {
     EXPECT_GT(std::string(bdis::presetDescription(name)).size(), 10u) << name;
   }
-  // The time ratio measured for accurate (about 2.5 times balanced) is stated once, here.
-  EXPECT_TRUE(contains(bdis::presetDescription("accurate"), "2.5 times"));
+  // The time ratio measured for accurate (about 3 times balanced) is stated once, here.
+  EXPECT_TRUE(contains(bdis::presetDescription("accurate"), "3 times"));
   EXPECT_TRUE(contains(invalidArgumentMessage([] { bdis::presetDescription("turbo"); }), "turbo"));
 }
 
