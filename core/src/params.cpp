@@ -84,7 +84,8 @@ const std::vector<ParamField>& paramFields() {
             "finest level: a pixel g grey levels from its patch centre weighs 1 / (1 + (g / h)^2), h this "
             "(scaled below a centre of 64), so patches beside an edge match their centre; 0 = off"),
       field("support_edge_grey", &MatcherParams::support_edge_grey, 0.0, 255.0,
-            "support weights only in patches with a pixel this many grey levels from the centre's (an edge); 0 = every patch"),
+            "support weights only in patches with a pixel this many grey levels (scaled as support_grey) from the "
+            "centre's (an edge); 0 = every patch"),
       field("min_valid_share", &MatcherParams::min_valid_share, 0.0, 1.0,
             "gamma: minimum share of valid (non-black) pixels in a patch"),
       field("saturation_grey", &MatcherParams::saturation_grey, 1, 256,
