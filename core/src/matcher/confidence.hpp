@@ -11,7 +11,8 @@
 // loosely against their own noise (residual_fit_cue.hpp), and the nearer it
 // lies to a jump between neighbouring estimates (edge_distance_cue.hpp),
 // and, on block-coded views, where the codec's grid may have pulled it
-// (block_grid_cue.hpp).
+// (block_grid_cue.hpp), and where a clipped highlight's lobe outweighs the
+// texture around it (specular_lobe_cue.hpp).
 // Measured on generated
 // scenes and the colon sequences, each cue ranks the wrong estimates better
 // than the evidence alone; see docs/method.md for the figures.
@@ -75,6 +76,10 @@ constexpr float kImageBorderKeptAtEdge = 0.25f;
 /// and the share of its confidence taken where it sits exactly on it.
 constexpr float kBlockGridReachPx = kSpreadHalvingPx;
 constexpr float kBlockGridDoubt = 0.75f;
+/// How far the smooth gradient's RMS may exceed the texture's, as a share of
+/// the texture's, next to a clipped highlight before the confidence halves:
+/// at 1.5 times the texture's the lobe outweighs it (specular_lobe_cue.hpp).
+constexpr float kSpecularLobeHalving = 0.5f;
 
 /// The variance of a pixel's disparity, as a standard deviation of its
 /// error should be (docs/method.md, "Variance"): shares of the covering

@@ -18,6 +18,7 @@
 #include "consensus_cue.hpp"
 #include "edge_distance_cue.hpp"
 #include "image_border_cue.hpp"
+#include "specular_lobe_cue.hpp"
 #include "left_right_check.hpp"
 #include "neighbourhood_cue.hpp"
 #include "outlier_variance.hpp"
@@ -108,6 +109,7 @@ struct Matcher::Impl {
   detail::ResidualFitCue residual_fit;
   detail::EdgeDistanceCue edge_distance;
   detail::ImageBorderCue image_border;     ///< the image border cue
+  detail::SpecularLobeCue specular_lobe;   ///< the specular lobe cue
   detail::NeighbourhoodCue neighbourhood;  ///< the neighbourhood cue
   detail::VariationalRefinement refinement;
   detail::TextureCentroidCorrection centroid_correction;
@@ -249,6 +251,10 @@ void Matcher::Impl::applyConfidenceCues(int finest, detail::LevelMaps& out) {
   detail::applyBlockGridCue(out.disparity, static_cast<float>(1 << finest),
                             detail::alignedGridDisparity(pyramid.columnSteps(true), pyramid.columnSteps(false)),
                             detail::kBlockGridReachPx, detail::kBlockGridDoubt, out.confidence);
+  // The specular lobe cue: estimates a clipped highlight's lobe, not the
+  // tissue's texture, has placed.
+  specular_lobe.apply(out.disparity, level.left, level.left_valid, level.left_gx, resolved.saturation_grey, p,
+                      detail::kSpecularLobeHalving, out.confidence);
   // The neighbourhood cue, last: each confidence pooled with its neighbours'
   // as the cues above left them.
   neighbourhood.apply(out.disparity, p, out.confidence);
