@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -123,6 +124,22 @@ float referenceFactor(const LevelImage& im, int x, int y) {
   return static_cast<float>(1.0 / (1.0 + excess * excess / (kHalving * kHalving)));
 }
 
+/// The estimates 8-16 px from the lobe's centre (64, 48): how many, and how
+/// many of them have a confidence `c` passes.
+template <class Pass>
+std::pair<int, int> ringCount(const cv::Mat1f& d, const cv::Mat1f& c, Pass pass) {
+  int ring = 0, passed = 0;
+  for (int y = 0; y < d.rows; ++y) {
+    for (int x = 0; x < d.cols; ++x) {
+      const float r = std::hypot(x - 64.f, y - 48.f);
+      if (r < 8.f || r > 16.f || d(y, x) < 0.f) continue;
+      ++ring;
+      passed += pass(c(y, x)) ? 1 : 0;
+    }
+  }
+  return {ring, passed};
+}
+
 TEST(SpecularLobeCue, LowersTheRingOfALobeOverFaintTexture) {
   // A lobe of sigma 14 px whose core (about 9 px across) is clipped, on
   // texture of 2 grey levels.
@@ -130,16 +147,8 @@ TEST(SpecularLobeCue, LowersTheRingOfALobeOverFaintTexture) {
   ASSERT_GT(cv::countNonZero(im.valid == 0), 20);
   const cv::Mat1f d = estimatesWhereValid(im);
   const cv::Mat1f c = applyCue(im, d);
-  // The ring 2-10 px outside the clipped core: mostly halved or less.
-  int ring = 0, lowered = 0;
-  for (int y = 0; y < d.rows; ++y) {
-    for (int x = 0; x < d.cols; ++x) {
-      const float r = std::hypot(x - 64.f, y - 48.f);
-      if (r < 8.f || r > 16.f || d(y, x) < 0.f) continue;
-      ++ring;
-      lowered += c(y, x) < 0.45f;
-    }
-  }
+  // The ring around the clipped core: mostly halved or less.
+  const auto [ring, lowered] = ringCount(d, c, [](float v) { return v < 0.45f; });
   EXPECT_GT(ring, 300);
   EXPECT_GT(lowered, ring * 3 / 4) << lowered << " of " << ring;
   // Beyond the reach (4 patch sides from the core), untouched.
@@ -154,16 +163,7 @@ TEST(SpecularLobeCue, StrongTextureOutweighsTheLobe) {
   // texture, and near every ring pixel keeps its confidence.
   const LevelImage im = lobeImage(128, 96, 64.f, 48.f, 14.f, 215.f, 40.f);
   const cv::Mat1f d = estimatesWhereValid(im);
-  const cv::Mat1f c = applyCue(im, d);
-  int ring = 0, kept = 0;
-  for (int y = 0; y < d.rows; ++y) {
-    for (int x = 0; x < d.cols; ++x) {
-      const float r = std::hypot(x - 64.f, y - 48.f);
-      if (r < 8.f || r > 16.f || d(y, x) < 0.f) continue;
-      ++ring;
-      kept += c(y, x) > 0.85f;
-    }
-  }
+  const auto [ring, kept] = ringCount(d, applyCue(im, d), [](float v) { return v > 0.85f; });
   EXPECT_GT(kept, ring * 9 / 10) << kept << " of " << ring;
 }
 
