@@ -173,9 +173,12 @@ void SpecularLobeCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& grey, c
         bool any = false;
         for (int bx = 0; bx < bw; ++bx) {
           block_factor_[static_cast<size_t>(bx)] = 1.f;
-          if (!(smooth_energy[bx] > texture_energy[bx])) continue;
+          // The sliding sums round (box_sums.hpp): a box of zero energy may
+          // sum to a little below 0.
+          const float texture = std::max(texture_energy[bx], 1e-6f);
+          if (!(smooth_energy[bx] > texture)) continue;
           const int k = std::min(static_cast<int>(dist[bx]), reach + 1);
-          const float ratio = std::sqrt(smooth_energy[bx] / std::max(texture_energy[bx], 1e-6f));
+          const float ratio = std::sqrt(smooth_energy[bx] / texture);
           const float excess = (ratio - 1.f) * near_table_[static_cast<size_t>(k)];
           block_factor_[static_cast<size_t>(bx)] = agreement(excess * excess, inv_halving_sq);
           any = true;

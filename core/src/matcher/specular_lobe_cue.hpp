@@ -37,7 +37,8 @@ class SpecularLobeCue {
   ///   the nearest block with a clipped pixel: an invalid one of grey at
   ///   least kClippedGreyShare * `saturation_grey` (black frame pixels and
   ///   their dark seam are darker).
-  /// Where the smooth energy does not exceed the texture's, the factor is 1.
+  /// Where the smooth energy does not exceed the texture's (or 1e-6), the
+  /// factor is 1.
   /// A frame without clipped pixels (or `saturation_grey` above 255) keeps
   /// its confidence, and so does every block row further than kReachPatches
   /// patch sides from a clipped pixel. Boxes are clipped to the map and to

@@ -118,8 +118,9 @@ float referenceFactor(const LevelImage& im, int x, int y) {
       }
     }
   }
+  texture_energy = std::max(texture_energy, 1e-6);
   if (!(smooth_energy > texture_energy)) return 1.f;
-  const double excess = (std::sqrt(smooth_energy / std::max(texture_energy, 1e-6)) - 1.0) *
+  const double excess = (std::sqrt(smooth_energy / texture_energy) - 1.0) *
                         std::exp(-2.0 * distance / kPatch);
   return static_cast<float>(1.0 / (1.0 + excess * excess / (kHalving * kHalving)));
 }
