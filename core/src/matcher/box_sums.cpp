@@ -105,6 +105,25 @@ void boxSumsAlongLine(int n, int half, const float* values, std::vector<float>& 
   boxRow(n, 2 * half + 1, padded.data(), out);
 }
 
+namespace {
+
+BDIS_ROW_LOOP
+void distanceFromRow(int n, const float* __restrict other, float* __restrict row) {
+  for (int x = 0; x < n; ++x) row[x] = std::min(row[x], other[x] + 1.f);
+}
+
+}  // namespace
+
+void distanceForwardRow(int n, const float* other, float* row) {
+  if (other) distanceFromRow(n, other, row);
+  for (int x = 1; x < n; ++x) row[x] = std::min(row[x], row[x - 1] + 1.f);
+}
+
+void distanceBackwardRow(int n, const float* other, float* row) {
+  if (other) distanceFromRow(n, other, row);
+  for (int x = n - 2; x >= 0; --x) row[x] = std::min(row[x], row[x + 1] + 1.f);
+}
+
 BDIS_ROW_LOOP
 void blocksToPixels(int w, const float* __restrict blocks, float* __restrict pixels) {
   const int pairs = w / 2;

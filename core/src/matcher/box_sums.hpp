@@ -37,6 +37,14 @@ inline float slopeAcross(float before, float centre, float after, float inv_step
 /// is scratch (n + 2 half values), kept for the next call.
 void boxSumsAlongLine(int n, int half, const float* values, std::vector<float>& padded, float* out);
 
+/// The two raster passes of a city-block distance transform (steps of 1),
+/// one row at a time: each value becomes the least of itself, the
+/// neighbouring row's (`other`, null for none) plus 1, and, along the row,
+/// its left (forward pass) or right (backward pass) neighbour's plus 1.
+/// Rows start at 0 where the distance is measured from, far elsewhere.
+void distanceForwardRow(int n, const float* other, float* row);
+void distanceBackwardRow(int n, const float* other, float* row);
+
 /// A row of 2 x 2 blocks' values onto the w pixels of a block row: pixel x
 /// gets block x / 2 (`blocks` holds at least (w + 1) / 2 values).
 void blocksToPixels(int w, const float* blocks, float* pixels);

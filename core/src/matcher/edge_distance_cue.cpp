@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "box_sums.hpp"       // blocksToPixels
+#include "box_sums.hpp"       // blocksToPixels, distanceForwardRow
 #include "patch_kernels.hpp"  // BDIS_ROW_LOOP
 
 namespace bdis {
@@ -33,11 +33,6 @@ void pixelMarks(int w, const unsigned char* __restrict left_0, const unsigned ch
   for (int x = 0; x < w; ++x) {
     marks[x] = left_0[x] | left_0[x + 1] | left_1[x] | left_1[x + 1] | above[x] | between[x] | below[x];
   }
-}
-
-BDIS_ROW_LOOP
-void distanceFromRow(int n, const float* __restrict other, float* __restrict row) {
-  for (int x = 0; x < n; ++x) row[x] = std::min(row[x], other[x] + 1.f);
 }
 
 BDIS_ROW_LOOP
@@ -97,14 +92,12 @@ void EdgeDistanceCue::apply(const cv::Mat1f& disparity, float jump, float halvin
   for (int by = 0; by < bh; ++by) {
     float* row = block_distance_[by];
     markBlockRow(disparity, by, jump, row);
-    if (by > 0) distanceFromRow(bw, block_distance_[by - 1], row);
-    for (int bx = 1; bx < bw; ++bx) row[bx] = std::min(row[bx], row[bx - 1] + 1.f);
+    distanceForwardRow(bw, by > 0 ? block_distance_[by - 1] : nullptr, row);
   }
   // The backward pass, then each block row's factor onto its pixel rows.
   for (int by = bh - 1; by >= 0; --by) {
     float* row = block_distance_[by];
-    if (by + 1 < bh) distanceFromRow(bw, block_distance_[by + 1], row);
-    for (int bx = bw - 2; bx >= 0; --bx) row[bx] = std::min(row[bx], row[bx + 1] + 1.f);
+    distanceBackwardRow(bw, by + 1 < bh ? block_distance_[by + 1] : nullptr, row);
     factorRow(bw, row, halving, block_factor_.data());
     blocksToPixels(w, block_factor_.data(), factor_.data());
     for (int y = 2 * by; y < std::min(2 * by + 2, h); ++y) multiplyRow(w, factor_.data(), confidence[y]);

@@ -14,11 +14,6 @@ namespace {
 /// A distance no frame reaches.
 constexpr float kFarBlocks = 1e6f;
 
-BDIS_ROW_LOOP
-void distanceFromRow(int n, const float* __restrict other, float* __restrict row) {
-  for (int x = 0; x < n; ++x) row[x] = std::min(row[x], other[x] + 1.f);
-}
-
 /// 1 where a pixel of the row is clipped (invalid and at least
 /// `clipped_grey`), 0 elsewhere; returns whether any is.
 BDIS_ROW_LOOP
@@ -99,16 +94,8 @@ void SpecularLobeCue::markClippedBlocks(const cv::Mat1f& grey, const cv::Mat1b& 
 
 void SpecularLobeCue::distanceTransform(int by0, int by1) {
   const int bw = distance_.cols;
-  for (int by = by0; by <= by1; ++by) {
-    float* row = distance_[by];
-    if (by > by0) distanceFromRow(bw, distance_[by - 1], row);
-    for (int bx = 1; bx < bw; ++bx) row[bx] = std::min(row[bx], row[bx - 1] + 1.f);
-  }
-  for (int by = by1; by >= by0; --by) {
-    float* row = distance_[by];
-    if (by < by1) distanceFromRow(bw, distance_[by + 1], row);
-    for (int bx = bw - 2; bx >= 0; --bx) row[bx] = std::min(row[bx], row[bx + 1] + 1.f);
-  }
+  for (int by = by0; by <= by1; ++by) distanceForwardRow(bw, by > by0 ? distance_[by - 1] : nullptr, distance_[by]);
+  for (int by = by1; by >= by0; --by) distanceBackwardRow(bw, by < by1 ? distance_[by + 1] : nullptr, distance_[by]);
 }
 
 void SpecularLobeCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& grey, const cv::Mat1b& valid,
@@ -140,14 +127,19 @@ void SpecularLobeCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& grey, c
   column_counts_.resize(static_cast<size_t>(2 * bw + 1));
   block_gradient_.resize(static_cast<size_t>(bw));
   pixel_gradient_.resize(static_cast<size_t>(w));
+  // Pixels per block: 4, 2 in an odd width's last column; half that on an odd height's last row.
+  block_pixels_.assign(static_cast<size_t>(bw), 4.f);
+  if (w % 2 != 0) block_pixels_.back() = 2.f;
+  block_pixels_one_row_.resize(block_pixels_.size());
+  for (size_t i = 0; i < block_pixels_.size(); ++i) block_pixels_one_row_[i] = 0.5f * block_pixels_[i];
   smooth_sums_.begin(bw, rows, std::max(1, patch_px / 8));
   smooth_sums_.sweep(
       [&](int r, float* sum, float* count) {
         const int y0 = 2 * (by0 + r), y1 = std::min(y0 + 1, h - 1);
         columnSumsRow(w, grey[y0], grey[y1], y1 > y0, columns_.data());
         columnPairsToBlocks(w, bw, columns_.data(), sum);
-        std::fill(column_counts_.begin(), column_counts_.begin() + w, y1 > y0 ? 2.f : 1.f);
-        columnPairsToBlocks(w, bw, column_counts_.data(), count);
+        const std::vector<float>& pixels = y1 > y0 ? block_pixels_ : block_pixels_one_row_;
+        std::copy(pixels.begin(), pixels.end(), count);
       },
       [&](int r, const float* sum, const float* count) {
         float* s = smooth_[by0 + r];
