@@ -5,6 +5,7 @@
 
 #include "bdis_stereo/matcher.hpp"  // kNoDisparity
 #include "fusion.hpp"               // coarserLevelRow
+#include "patch_cost.hpp"           // kSupportFullContrastGrey, kSupportMinContrastShare
 #include "patch_kernels.hpp"        // BDIS_ROW_LOOP
 
 namespace bdis {
@@ -21,6 +22,22 @@ constexpr float kZetaSq = 0.1f * 0.1f;
 constexpr float kEpsilonSq = 0.001f * 0.001f;
 constexpr float kOmega = 1.9f;
 constexpr int kSweeps = 3;
+
+/// A smoothness link between two pixels whose left grey levels differ by g
+/// keeps 1 / (1 + (g / h)^2) of its weight, h this many grey levels, scaled
+/// below a grey level of kSupportFullContrastGrey as the support weights'
+/// are (patch_cost.hpp). An instrument's outline or a fold's rim is an edge
+/// in the image and mostly a depth edge too; across it the smoothness
+/// carried the outline's disparity, which the data term pins there, into
+/// weakly textured tissue beside it.
+constexpr float kEdgeGrey = 16.f;
+
+/// The squared grey difference at which a link between pixels of grey
+/// levels a and b halves.
+inline float edgeHalvingSq(float a, float b) {
+  const float share = std::clamp(0.5f * (a + b) * (1.f / kSupportFullContrastGrey), kSupportMinContrastShare, 1.f);
+  return share * share * (kEdgeGrey * kEdgeGrey);
+}
 
 /// d/dx by central differences, one-sided at the ends.
 inline void derivativeX(int w, const float* __restrict in, float* __restrict out) {
@@ -146,26 +163,39 @@ void refinedRow(int w, const float* __restrict start, const float* __restrict t,
 }
 
 /// The smoothness weight of each pixel's links to its right and lower
-/// neighbours, robust in the current disparity's forward differences:
-/// `right` gets the weight of pixel x's link at x + 1 (column 0 holds the
-/// link left of the first pixel, 0), `down` at x; `below` null on the last
-/// row (no lower link, weight 0).
+/// neighbours, robust in the current disparity's forward differences and
+/// cut at the left image's edges (kEdgeGrey; `grey` the row's left grey
+/// levels): `right` gets the weight of pixel x's link at x + 1 (column 0
+/// holds the link left of the first pixel, 0), `down` at x; `below` and
+/// `grey_below` null on the last row (no lower link, weight 0).
 BDIS_ROW_LOOP
 void smoothnessRow(int w, float half_alpha, const float* __restrict start, const float* __restrict t,
-                   const float* __restrict start_below, const float* __restrict t_below,
-                   float* __restrict right, float* __restrict down) {
+                   const float* __restrict grey, const float* __restrict start_below,
+                   const float* __restrict t_below, const float* __restrict grey_below, float* __restrict right,
+                   float* __restrict down) {
   right[0] = 0.f;
   for (int x = 0; x < w - 1; ++x) {
     const float d = start[x] + t[x];
     const float dx = start[x + 1] + t[x + 1] - d;
     const float dy = start_below ? start_below[x] + t_below[x] - d : 0.f;
-    const float weight = half_alpha / std::sqrt(dx * dx + dy * dy + kEpsilonSq);
-    right[x + 1] = weight;
-    down[x] = start_below ? weight : 0.f;
+    const float gx = grey[x + 1] - grey[x];
+    const float hx = edgeHalvingSq(grey[x + 1], grey[x]);
+    const float gy = start_below ? grey_below[x] - grey[x] : 0.f;
+    const float hy = start_below ? edgeHalvingSq(grey_below[x], grey[x]) : 1.f;
+    // weight * h / (h + g^2) for both links over one division.
+    const float ex = hx + gx * gx, ey = hy + gy * gy;
+    const float common = half_alpha / (std::sqrt(dx * dx + dy * dy + kEpsilonSq) * ex * ey);
+    right[x + 1] = common * hx * ey;
+    down[x] = start_below ? common * hy * ex : 0.f;
   }
-  const float dy = start_below ? start_below[w - 1] + t_below[w - 1] - start[w - 1] - t[w - 1] : 0.f;
   right[w] = 0.f;
-  down[w - 1] = start_below ? half_alpha / std::sqrt(dy * dy + kEpsilonSq) : 0.f;
+  down[w - 1] = 0.f;
+  if (start_below) {
+    const float dy = start_below[w - 1] + t_below[w - 1] - start[w - 1] - t[w - 1];
+    const float gy = grey_below[w - 1] - grey[w - 1];
+    const float hy = edgeHalvingSq(grey_below[w - 1], grey[w - 1]);
+    down[w - 1] = half_alpha / std::sqrt(dy * dy + kEpsilonSq) * hy / (hy + gy * gy);
+  }
 }
 
 /// One colour of a red-black SOR sweep over a row: the pixels with x
@@ -268,8 +298,8 @@ void VariationalRefinement::fixedPointStep(const PyramidLevel& level, cv::Mat1f*
     if (step < h) {
       const int y = step;
       const bool has_below = y + 1 < h;
-      smoothnessRow(w, half_alpha, start(y), t(y), has_below ? start(y + 1) : nullptr, has_below ? t(y + 1) : nullptr,
-                    right(y), down(y + 1));
+      smoothnessRow(w, half_alpha, start(y), t(y), level.leftRow(y), has_below ? start(y + 1) : nullptr,
+                    has_below ? t(y + 1) : nullptr, has_below ? level.leftRow(y + 1) : nullptr, right(y), down(y + 1));
       prepareDataTermRow(level, y);
       // The top and bottom rows have their vertical links on the inside only,
       // so those links' pull towards the next row's start is one-sided: on a
