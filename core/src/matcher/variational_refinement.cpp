@@ -27,8 +27,8 @@ constexpr int kSweeps = 3;
 /// keeps 1 / (1 + (g / h)^2) of its weight, h this many grey levels, scaled
 /// below a grey level of kSupportFullContrastGrey as the support weights'
 /// are (patch_cost.hpp). An instrument's outline or a fold's rim is an edge
-/// in the image and mostly a depth edge too; across it the smoothness
-/// carried the outline's disparity, which the data term pins there, into
+/// in the image and mostly a depth edge too; across it the smoothness would
+/// carry the outline's disparity, which the data term pins there, into
 /// weakly textured tissue beside it.
 constexpr float kEdgeGrey = 16.f;
 
