@@ -32,6 +32,14 @@ constexpr float kSupportFullContrastGrey = 64.f;
 /// about the noise of a dark pixel: a finer grey step is noise, not an edge.
 constexpr float kSupportMinContrastShare = 0.25f;
 
+/// The square of the share of such grey levels that holds at grey level
+/// `grey` (a patch centre's; the variational refinement's link, its two
+/// pixels' mean).
+inline float supportContrastShareSq(float grey) {
+  const float share = std::clamp(grey * (1.f / kSupportFullContrastGrey), kSupportMinContrastShare, 1.f);
+  return share * share;
+}
+
 /// Whether a patch's search sums weigh its pixels by their support weights.
 enum class SupportWeighting : unsigned char {
   Unknown,   ///< not decided yet (decided when a sum is first asked for)
@@ -188,12 +196,6 @@ class PatchCost {
     return true;
   }
   bool supportCentreOfValid(float& centre) const;
-  /// The square of the share of the support weights' grey levels that holds
-  /// at a centre of grey level `centre` (kSupportFullContrastGrey).
-  static float supportContrastShareSq(float centre) {
-    const float share = std::clamp(centre * (1.f / kSupportFullContrastGrey), kSupportMinContrastShare, 1.f);
-    return share * share;
-  }
   /// loadPatch's template constants with support weights. Out of line, so
   /// that the plain path's call carries none of its register saves.
   [[gnu::noinline]] void loadSupportWeighted();

@@ -130,16 +130,14 @@ void SpecularLobeCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& grey, c
   // Pixels per block: 4, 2 in an odd width's last column; half that on an odd height's last row.
   block_pixels_.assign(static_cast<size_t>(bw), 4.f);
   if (w % 2 != 0) block_pixels_.back() = 2.f;
-  block_pixels_one_row_.resize(block_pixels_.size());
-  for (size_t i = 0; i < block_pixels_.size(); ++i) block_pixels_one_row_[i] = 0.5f * block_pixels_[i];
   smooth_sums_.begin(bw, rows, std::max(1, patch_px / 8));
   smooth_sums_.sweep(
       [&](int r, float* sum, float* count) {
         const int y0 = 2 * (by0 + r), y1 = std::min(y0 + 1, h - 1);
         columnSumsRow(w, grey[y0], grey[y1], y1 > y0, columns_.data());
         columnPairsToBlocks(w, bw, columns_.data(), sum);
-        const std::vector<float>& pixels = y1 > y0 ? block_pixels_ : block_pixels_one_row_;
-        std::copy(pixels.begin(), pixels.end(), count);
+        const float row_share = y1 > y0 ? 1.f : 0.5f;
+        for (int b = 0; b < bw; ++b) count[b] = row_share * block_pixels_[static_cast<size_t>(b)];
       },
       [&](int r, const float* sum, const float* count) {
         float* s = smooth_[by0 + r];

@@ -66,7 +66,7 @@ class SpecularLobeCue {
   BoxSums smooth_sums_, energy_sums_;
   std::vector<float> block_factor_, pixel_factor_, near_table_;
   std::vector<float> columns_, column_counts_, block_gradient_, pixel_gradient_;  ///< a row, per column or block
-  std::vector<float> block_pixels_, block_pixels_one_row_;  ///< pixels per block, of two rows and of one
+  std::vector<float> block_pixels_;  ///< pixels per block of two rows
   std::vector<uchar> clipped_;  ///< a row's clipped pixels
 };
 

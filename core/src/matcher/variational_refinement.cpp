@@ -5,7 +5,7 @@
 
 #include "bdis_stereo/matcher.hpp"  // kNoDisparity
 #include "fusion.hpp"               // coarserLevelRow
-#include "patch_cost.hpp"           // kSupportFullContrastGrey, kSupportMinContrastShare
+#include "patch_cost.hpp"           // supportContrastShareSq
 #include "patch_kernels.hpp"        // BDIS_ROW_LOOP
 
 namespace bdis {
@@ -35,8 +35,7 @@ constexpr float kEdgeGrey = 16.f;
 /// The squared grey difference at which a link between pixels of grey
 /// levels a and b halves.
 inline float edgeHalvingSq(float a, float b) {
-  const float share = std::clamp(0.5f * (a + b) * (1.f / kSupportFullContrastGrey), kSupportMinContrastShare, 1.f);
-  return share * share * (kEdgeGrey * kEdgeGrey);
+  return supportContrastShareSq(0.5f * (a + b)) * (kEdgeGrey * kEdgeGrey);
 }
 
 /// d/dx by central differences, one-sided at the ends.
