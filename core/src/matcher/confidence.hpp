@@ -3,8 +3,8 @@
 // disagree on its disparity (the pixel mixes surfaces: a depth edge, an
 // occluder's rim, a guess in a flat region), where the search from the
 // right image lands elsewhere (left-right check), where the surface is too
-// slanted for a patch of one disparity or, on strong texture, misfits it
-// (slant_cue.hpp), where most of its neighbourhood got no estimate
+// slanted for a patch of one disparity or, on strong texture, misfits it,
+// or where one edge is most of the texture (slant_cue.hpp), where most of its neighbourhood got no estimate
 // (support_cue.hpp), where it stands apart from the estimates of its
 // wider neighbourhood (consensus_cue.hpp) and where the images, warped by
 // the estimates, still show a slant they miss or pin their shift only
@@ -36,6 +36,12 @@ constexpr float kSlantHalvingPx = 2.0f;
 /// outline) dominates the patch and pulls its disparity to the edge's own.
 constexpr float kStrongTextureGreyPerPx = 2.0f;
 constexpr float kMisfitHalvingGrey = kSlantHalvingPx * kStrongTextureGreyPerPx;
+/// How far the texture's peakedness in a patch-sized box, mean(g^2) /
+/// mean(|g|)^2 of the left image's horizontal gradient, may exceed a
+/// Gaussian texture's pi / 2 before the confidence halves (slant_cue.hpp).
+/// One edge covering a share s of the box and nothing else gives about 1 /
+/// s: a patch-wide box crossed by one edge, 5-10.
+constexpr float kLoneEdgeHalving = 1.0f;
 /// Bend of the surface across a patch (the Laplacian of the patch-box means
 /// at half a patch's step) at which the confidence halves: that of the
 /// spread, as the patches around a pixel miss the bend by about that much.

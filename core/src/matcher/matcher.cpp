@@ -228,9 +228,10 @@ void Matcher::Impl::applyConfidenceCues(int finest, detail::LevelMaps& out) {
   const int p = resolved.patch_size;
   const float level_px = 1.f / static_cast<float>(1 << finest);
   // The slant cue: surfaces too slanted or bent for a patch of one
-  // disparity, or slanted and so strongly textured that the patch misfits them.
+  // disparity, or slanted and so strongly textured that the patch misfits
+  // them, and patches whose texture is one edge.
   slant.apply(out.disparity, level.left_gx, p, detail::kSlantHalvingPx * level_px, detail::kMisfitHalvingGrey,
-              detail::kBendHalvingPx * level_px, out.confidence);
+              detail::kBendHalvingPx * level_px, detail::kLoneEdgeHalving, out.confidence);
   // The support cue: estimates among holes.
   support.apply(out.disparity, level.left_valid, level.left, p, detail::kSupportHalvingShare, out.confidence);
   // The consensus cue: estimates that stand apart from their neighbourhood.

@@ -12,7 +12,12 @@
 // pulls the match to the edge's own disparity. Where the surface bends
 // within a patch's reach (a fold's rim, the nearest tissue), a patch of one
 // disparity, and the mean of the patches around a pixel, miss the bend: short
-// on a ridge, past it in a valley.
+// on a ridge, past it in a valley. Where one edge carries most of a patch's
+// texture (an instrument's outline or a fold's rim beside flat or dark
+// tissue) the patch matches that edge alone, and the edge's disparity is
+// the occluder's, or that of the shadow or the uncovered tissue the other
+// view sees beside it, or in between; not that of the tissue in the patch.
+// Its gradient is then peaked: a few large values among small ones.
 #pragma once
 
 #include <vector>
@@ -40,16 +45,19 @@ class SlantCue {
   /// grey levels per level px) over the same box. Then by agreement() of the
   /// bend, the discrete Laplacian of those box means at the same step (B(x -
   /// r) + B(x + r) + B(y - r) + B(y + r) - 4 B, r = rb blocks; 0 unless all
-  /// four exist), with `bend_halving` (level px). Buffers are kept for the
-  /// next frame of the same size; the box sums are separable, in row loops
-  /// that vectorise.
+  /// four exist), with `bend_halving` (level px). Then by agreement() of
+  /// the lone edge, the texture's peakedness over the same box, mean(g^2) /
+  /// mean(|g|)^2 of `gradient`, less pi / 2 (a Gaussian texture's or noise's;
+  /// 0 below it and where the box is flat), with `lone_edge_halving`. Buffers
+  /// are kept for the next frame of the same size; the box sums are
+  /// separable, in row loops that vectorise.
   void apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int patch_px, float halving,
-             float misfit_halving, float bend_halving, cv::Mat1f& confidence);
+             float misfit_halving, float bend_halving, float lone_edge_halving, cv::Mat1f& confidence);
 
  private:
   BlockEstimates blocks_;  ///< the estimates' sum and count per 2 x 2 block
   BoxSums sums_;           ///< of those, over boxes of blocks
-  BoxSums gradient_sums_;  ///< of the squared gradient, per block, over the same boxes
+  BoxSums gradient_sums_;  ///< of the squared and the absolute gradient, per block, over the same boxes
   std::vector<float> inv_box_columns_;  ///< 1 / pixel columns of each block column's box, clipped to the map
   std::vector<float> pairs_, factor_, pixel_factor_;  ///< one row's scratch
   /// Box mean of the estimates per block, kNoDisparity where the box has

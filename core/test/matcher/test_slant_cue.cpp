@@ -1,5 +1,5 @@
 // The slant cue (slant_cue.hpp) on hand-made disparity maps of known slope
-// and gradient maps of known texture.
+// and gradient maps of known texture: uniform, striped, and one edge.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -17,10 +17,11 @@ constexpr float kHalving = 1.f;  // level px of disparity across a patch
 constexpr float kMisfitHalving = 4.f;  // grey levels
 constexpr float kBendHalving = 1.f;    // level px of bend
 constexpr float kBendOff = 1e6f;       // a halving no bend here reaches: the slant and misfit alone
+constexpr float kLoneEdgeOff = 1e6f;   // nor a lone edge
 
 /// The cue on an untextured image (gradient 0): the slant alone.
 void applySlant(SlantCue& cue, const cv::Mat1f& disparity, cv::Mat1f& confidence) {
-  cue.apply(disparity, cv::Mat1f(disparity.size(), 0.f), kPatch, kHalving, kMisfitHalving, kBendOff, confidence);
+  cue.apply(disparity, cv::Mat1f(disparity.size(), 0.f), kPatch, kHalving, kMisfitHalving, kBendOff, kLoneEdgeOff, confidence);
 }
 
 /// d = 30 + gx * x + gy * y everywhere, confidence 1.
@@ -69,7 +70,7 @@ TEST(SlantCue, APlaneHasNoBend) {
   cv::Mat1f d, c;
   plane(64, 48, 0.1f, 0.2f, d, c);
   SlantCue cue;
-  cue.apply(d, cv::Mat1f(d.size(), 0.f), kPatch, kHalving, kMisfitHalving, kBendHalving, c);
+  cue.apply(d, cv::Mat1f(d.size(), 0.f), kPatch, kHalving, kMisfitHalving, kBendHalving, kLoneEdgeOff, c);
   const float want = expectedFactor(std::hypot(0.1f, 0.2f));
   for (int y = 8; y < 40; ++y) {
     for (int x = 8; x < 56; ++x) ASSERT_NEAR(c(y, x), want, 1e-4f) << x << "," << y;
@@ -86,7 +87,7 @@ TEST(SlantCue, ABentSurfaceGetsTheFactorOfItsBend) {
   for (float a : {1.f / 64.f, 1.f / 32.f, -1.f / 32.f}) {
     cv::Mat1f d(48, 64), c(48, 64, 1.f);
     for (int x = 0; x < 64; ++x) d.col(x).setTo(30.f + a * (static_cast<float>(x) - 32.5f) * (static_cast<float>(x) - 32.5f));
-    cue.apply(d, cv::Mat1f(d.size(), 0.f), kPatch, kHalving, kMisfitHalving, kBendHalving, c);
+    cue.apply(d, cv::Mat1f(d.size(), 0.f), kPatch, kHalving, kMisfitHalving, kBendHalving, kLoneEdgeOff, c);
     const float bend = 32.f * a / kBendHalving;
     for (int y = 8; y < 40; ++y) {
       for (int x : {32, 33}) ASSERT_NEAR(c(y, x), 1.f / (1.f + bend * bend), 1e-4f) << "a " << a << " at " << x << "," << y;
@@ -147,7 +148,7 @@ TEST(SlantCue, DepthStepLowersTheConfidenceAlongItOnly) {
 TEST(SlantCue, EmptyMapAndMapsSmallerThanABox) {
   SlantCue cue;
   cv::Mat1f d(5, 3, kNoDisparity), c(5, 3, 0.f);
-  cue.apply(d, cv::Mat1f(5, 3, 50.f), kPatch, kHalving, kMisfitHalving, kBendOff, c);
+  cue.apply(d, cv::Mat1f(5, 3, 50.f), kPatch, kHalving, kMisfitHalving, kBendOff, kLoneEdgeOff, c);
   EXPECT_EQ(cv::countNonZero(c), 0);
   cv::Mat1f d2, c2;
   plane(3, 5, 0.5f, 0.f, d2, c2);
@@ -168,7 +169,7 @@ float expectedMisfitFactor(float s, float g) {
 TEST(SlantCue, TextureOnAFrontoParallelSurfaceKeepsItsConfidence) {
   cv::Mat1f d, c;
   plane(64, 48, 0.f, 0.f, d, c);
-  SlantCue().apply(d, cv::Mat1f(48, 64, 30.f), kPatch, kHalving, kMisfitHalving, kBendOff, c);
+  SlantCue().apply(d, cv::Mat1f(48, 64, 30.f), kPatch, kHalving, kMisfitHalving, kBendOff, kLoneEdgeOff, c);
   EXPECT_EQ(cv::countNonZero(c != 1.f), 0);
 }
 
@@ -178,7 +179,7 @@ TEST(SlantCue, TexturedSlantGetsTheFactorOfItsMisfit) {
     cv::Mat1f d, c;
     plane(64, 48, 0.f, slope, d, c);
     cv::Mat1f gradient(48, 64, g);
-    cue.apply(d, gradient, kPatch, kHalving, kMisfitHalving, kBendOff, c);
+    cue.apply(d, gradient, kPatch, kHalving, kMisfitHalving, kBendOff, kLoneEdgeOff, c);
     const float want = expectedFactor(slope) * expectedMisfitFactor(slope, g);
     for (int y = 8; y < 40; ++y) {
       for (int x = 8; x < 56; ++x) {
@@ -201,7 +202,7 @@ TEST(SlantCue, BoxesCutByTheSidesAverageTheTextureOverTheirOwnPixels) {
   for (const int w : {37, 38}) {
     cv::Mat1f d, c;
     plane(w, 30, 0.f, slope, d, c);
-    cue.apply(d, cv::Mat1f(30, w, g), kPatch, kHalving, kMisfitHalving, kBendOff, c);
+    cue.apply(d, cv::Mat1f(30, w, g), kPatch, kHalving, kMisfitHalving, kBendOff, kLoneEdgeOff, c);
     const float want = expectedFactor(slope) * expectedMisfitFactor(slope, g);
     for (int y = 10; y < 20; ++y) {
       for (int x = 0; x < w; ++x) ASSERT_NEAR(c(y, x), want, 1e-4f) << "width " << w << " at " << x << "," << y;
@@ -221,8 +222,8 @@ TEST(SlantCue, TheMisfitTakesTheGradientsRmsNotItsMean) {
     for (int x = 0; x < 64; ++x) stripes(y, x) = (x / 2) % 2 == 0 ? g : -g;
   }
   SlantCue cue;
-  cue.apply(d, cv::Mat1f(48, 64, g), kPatch, kHalving, kMisfitHalving, kBendOff, ramp_confidence);
-  cue.apply(d, stripes, kPatch, kHalving, kMisfitHalving, kBendOff, stripe_confidence);
+  cue.apply(d, cv::Mat1f(48, 64, g), kPatch, kHalving, kMisfitHalving, kBendOff, kLoneEdgeOff, ramp_confidence);
+  cue.apply(d, stripes, kPatch, kHalving, kMisfitHalving, kBendOff, kLoneEdgeOff, stripe_confidence);
   EXPECT_LT(ramp_confidence(24, 32), 0.5f * expectedFactor(slope));
   EXPECT_NEAR(stripe_confidence(24, 32), ramp_confidence(24, 32), 1e-4f);
 }
@@ -233,12 +234,73 @@ TEST(SlantCue, StrongerTextureOnTheSameSlantLowersTheConfidenceMore) {
   for (float g : {0.f, 1.f, 3.f, 8.f, 20.f}) {
     cv::Mat1f d, c;
     plane(40, 40, 0.06f, 0.f, d, c);
-    cue.apply(d, cv::Mat1f(40, 40, g), kPatch, kHalving, kMisfitHalving, kBendOff, c);
+    cue.apply(d, cv::Mat1f(40, 40, g), kPatch, kHalving, kMisfitHalving, kBendOff, kLoneEdgeOff, c);
     if (g > 0.f) {
       EXPECT_LT(c(20, 20), previous) << "gradient " << g;
     }
     previous = c(20, 20);
   }
+}
+
+/// A fronto-parallel plane on a texture of gradient `noise` everywhere plus
+/// one vertical edge: `edge` grey levels per px in columns 31 and 32.
+void loneEdge(float noise, float edge, cv::Mat1f& d, cv::Mat1f& c, cv::Mat1f& gradient) {
+  plane(64, 48, 0.f, 0.f, d, c);
+  gradient.create(48, 64);
+  for (int y = 0; y < 48; ++y) {
+    for (int x = 0; x < 64; ++x) gradient(y, x) = ((x + y) % 2 == 0 ? noise : -noise) + (x == 31 || x == 32 ? edge : 0.f);
+  }
+}
+
+TEST(SlantCue, ALoneEdgeGetsTheFactorOfItsPeakedness) {
+  // Beside the edge the box (10 columns) holds it in 2 of its columns:
+  // mean |g| = 0.2 e, mean g^2 = 0.2 e^2, so the peakedness is 1 / 0.2 = 5,
+  // pi / 2 over a Gaussian's by 3.43. Four blocks from it and further, the
+  // box sees no edge and keeps the plane's confidence (1).
+  const float halving = 2.f;
+  cv::Mat1f d, c, gradient;
+  loneEdge(0.f, 20.f, d, c, gradient);
+  SlantCue().apply(d, gradient, kPatch, kHalving, kMisfitHalving, kBendOff, halving, c);
+  const float excess = 5.f - 1.5707963f;
+  const float want = 1.f / (1.f + (excess / halving) * (excess / halving));
+  for (int y = 8; y < 40; ++y) {
+    for (int x = 28; x < 36; ++x) ASSERT_NEAR(c(y, x), want, 1e-4f) << x << "," << y;
+    for (int x : {0, 20, 42, 63}) ASSERT_EQ(c(y, x), 1.f) << x << "," << y;
+  }
+}
+
+TEST(SlantCue, TextureAroundAnEdgeTakesTheLoneEdgeFactorAway) {
+  // The same edge on ever stronger texture: the edge is less and less of
+  // what a patch sees, so the factor beside it rises towards 1. Uniform
+  // texture alone (the alternating +-g) is less peaked than a Gaussian's.
+  // With texture n beside it the box's mean |g| is 0.8 n + 4 and its mean
+  // g^2 n^2 + 80: from n = 6 on, no more peaked than a Gaussian's.
+  float previous = 0.f;
+  for (float noise : {0.f, 1.f, 2.f, 4.f, 6.f}) {
+    cv::Mat1f d, c, gradient;
+    loneEdge(noise, 20.f, d, c, gradient);
+    SlantCue().apply(d, gradient, kPatch, kHalving, kMisfitHalving, kBendOff, 1.f, c);
+    if (noise < 6.f) {
+      EXPECT_GT(c(24, 32), previous) << "texture " << noise;
+      EXPECT_LT(c(24, 32), 1.f) << "texture " << noise;
+    } else {
+      EXPECT_EQ(c(24, 32), 1.f);
+    }
+    previous = c(24, 32);
+  }
+  cv::Mat1f d, c, gradient;
+  loneEdge(4.f, 0.f, d, c, gradient);
+  SlantCue().apply(d, gradient, kPatch, kHalving, kMisfitHalving, kBendOff, 1.f, c);
+  EXPECT_EQ(cv::countNonZero(c != 1.f), 0);
+}
+
+TEST(SlantCue, AFlatBoxHasNoLoneEdge) {
+  // Gradients far below a grey level (the 8-bit image's step) are no edge,
+  // however they are distributed.
+  cv::Mat1f d, c, gradient;
+  loneEdge(0.f, 0.04f, d, c, gradient);
+  SlantCue().apply(d, gradient, kPatch, kHalving, kMisfitHalving, kBendOff, 1.f, c);
+  EXPECT_EQ(cv::countNonZero(c != 1.f), 0);
 }
 
 }  // namespace
