@@ -4,18 +4,18 @@
 // occluder's rim, a guess in a flat region), where the search from the
 // right image lands elsewhere (left-right check), where the surface is too
 // slanted for a patch of one disparity or, on strong texture, misfits it,
-// or where one edge is most of the texture (slant_cue.hpp), where most of its neighbourhood got no estimate
-// (support_cue.hpp), where it stands apart from the estimates of its
-// wider neighbourhood (consensus_cue.hpp) and where the images, warped by
-// the estimates, still show a slant they miss or pin their shift only
-// loosely against their own noise (residual_fit_cue.hpp), and the nearer it
-// lies to a jump between neighbouring estimates (edge_distance_cue.hpp),
-// and, on block-coded views, where the codec's grid may have pulled it
-// (block_grid_cue.hpp), and where a clipped highlight's lobe outweighs the
-// texture around it (specular_lobe_cue.hpp).
-// Measured on generated
-// scenes and the colon sequences, each cue ranks the wrong estimates better
-// than the evidence alone; see docs/method.md for the figures.
+// or where one edge is most of the texture (slant_cue.hpp), where most of
+// its neighbourhood got no estimate (support_cue.hpp), where it stands
+// apart from the estimates of its wider neighbourhood (consensus_cue.hpp)
+// and where the images, warped by the estimates, still show a slant they
+// miss or pin their shift only loosely against their own noise
+// (residual_fit_cue.hpp), and the nearer it lies to a jump between
+// neighbouring estimates (edge_distance_cue.hpp), and, on block-coded
+// views, where the codec's grid may have pulled it (block_grid_cue.hpp),
+// and where a clipped highlight's lobe outweighs the texture around it
+// (specular_lobe_cue.hpp). Measured on generated scenes and the colon
+// sequences, each cue ranks the wrong estimates better than the evidence
+// alone; see docs/method.md for the figures.
 #pragma once
 
 namespace bdis {
