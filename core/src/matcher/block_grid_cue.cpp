@@ -11,11 +11,45 @@ namespace detail {
 
 namespace {
 
+// Steps above this are texture or edges, not a codec's seams (as PhaseSteps
+// counts them).
+constexpr float kSeamStepLimitGrey = 16.f;
+
+/// One row's squared grey steps, each between pixels x - 1 and x (0 at x = 0
+/// and where either is invalid), into `all`.
+BDIS_ROW_LOOP
+void stepEnergyRow(int w, const float* __restrict grey, const uchar* __restrict valid, float* __restrict all) {
+  all[0] = 0.f;
+  for (int x = 1; x < w; ++x) {
+    const float step = std::min(std::fabs(grey[x] - grey[x - 1]), kSeamStepLimitGrey);
+    all[x] = static_cast<float>((valid[x] != 0) & (valid[x - 1] != 0)) * (step * step);  // & : no branch
+  }
+}
+
+/// The same steps on the seam columns only (x = seam_column modulo period).
+void seamStepsRow(int w, const float* all, int period, int seam_column, float* seam) {
+  std::fill(seam, seam + w, 0.f);
+  for (int x = seam_column; x < w; x += period) seam[x] = all[x];
+}
+
+/// One row's seam share above a gridless texture's (`base`), scaled to 0..1
+/// (0 where the box has no steps).
+BDIS_ROW_LOOP
+void seamShareRow(int w, const float* __restrict seam_sum, const float* __restrict all_sum, float base,
+                  float* __restrict share) {
+  const float inv_span = 1.f / (1.f - base);
+  for (int x = 0; x < w; ++x) {
+    const float s = all_sum[x] > 1e-3f ? seam_sum[x] / all_sum[x] : base;
+    share[x] = std::min(1.f, std::max(0.f, (s - base) * inv_span));
+  }
+}
+
 /// One row of the cue; `shift` = 1.5 blocks - aligned, so that the blocks'
 /// count below is positive for any estimate (d >= 0) and truncation rounds.
+/// `seams` null: the plain term only.
 BDIS_ROW_LOOP
 void blockGridRow(int w, const float* __restrict d, float scale, float shift, float inv_reach, float doubt,
-                  float* __restrict c) {
+                  float inv_seam_reach, float seam_doubt, const float* __restrict seams, float* __restrict c) {
   const float block = static_cast<float>(kCodecBlock), inv_block = 1.f / block;
   for (int x = 0; x < w; ++x) {
     // One block and a half more than the distance from the aligned disparity
@@ -23,21 +57,47 @@ void blockGridRow(int w, const float* __restrict d, float scale, float shift, fl
     const float t = std::max(0.f, d[x] * scale + shift);
     const float nearest = block * static_cast<float>(static_cast<int>(t * inv_block));
     const float r = std::fabs(t - nearest - 0.5f * block);
-    const float factor = 1.f - doubt * std::max(0.f, 1.f - r * inv_reach);
+    float factor = 1.f - doubt * std::max(0.f, 1.f - r * inv_reach);
+    if (seams) factor *= 1.f - seam_doubt * std::max(0.f, 1.f - r * inv_seam_reach) * seams[x];
     c[x] = d[x] >= 0.f ? c[x] * factor : c[x];  // kNoDisparity: no estimate
   }
 }
 
 }  // namespace
 
-void applyBlockGridCue(const cv::Mat1f& disparity, float level_scale, int aligned, float reach, float doubt,
-                       cv::Mat1f& confidence) {
-  if (aligned < 0) return;
-  CV_Assert(confidence.size() == disparity.size() && reach > 0.f);
-  const float shift = 1.5f * static_cast<float>(kCodecBlock) - static_cast<float>(aligned);
-  for (int y = 0; y < disparity.rows; ++y) {
-    blockGridRow(disparity.cols, disparity[y], level_scale, shift, 1.f / reach, doubt, confidence[y]);
+void BlockGridCue::apply(const cv::Mat1f& disparity, int level_scale, const BlockGridLayout& layout,
+                         const cv::Mat1f& grey, const cv::Mat1b& valid, int patch_px, const BlockGridDoubts& doubts,
+                         cv::Mat1f& confidence) {
+  if (layout.aligned < 0) return;
+  CV_Assert(confidence.size() == disparity.size() && doubts.reach > 0.f && doubts.seam_reach > 0.f &&
+            level_scale >= 1);
+  const float scale = static_cast<float>(level_scale);
+  const float shift = 1.5f * static_cast<float>(kCodecBlock) - static_cast<float>(layout.aligned);
+  const int w = disparity.cols, h = disparity.rows;
+  const int period = kCodecBlock / level_scale;  // level columns a block
+  if (doubts.seam_doubt <= 0.f || period < 2) {
+    for (int y = 0; y < h; ++y) {
+      blockGridRow(w, disparity[y], scale, shift, 1.f / doubts.reach, doubts.doubt, 0.f, 0.f, nullptr, confidence[y]);
+    }
+    return;
   }
+  CV_Assert(grey.size() == disparity.size() && valid.size() == disparity.size());
+  // The seam between input columns k - 1 and k lies between level columns
+  // q - 1 and q, q = k / 2^s rounded (inside a level pixel for odd k at
+  // level 1: then the nearer step carries it).
+  const int seam_column = ((layout.left_phase + level_scale / 2) / level_scale) % period;
+  seams_.resize(static_cast<size_t>(w));
+  sums_.begin(w, h, std::max(1, patch_px / 2));
+  sums_.sweep(
+      [&](int y, float* seam, float* all) {
+        stepEnergyRow(w, grey[y], valid[y], all);
+        seamStepsRow(w, all, period, seam_column, seam);
+      },
+      [&](int y, const float* seam_sum, const float* all_sum) {
+        seamShareRow(w, seam_sum, all_sum, 1.f / static_cast<float>(period), seams_.data());
+        blockGridRow(w, disparity[y], scale, shift, 1.f / doubts.reach, doubts.doubt, 1.f / doubts.seam_reach,
+                     doubts.seam_doubt, seams_.data(), confidence[y]);
+      });
 }
 
 }  // namespace detail

@@ -82,6 +82,12 @@ constexpr float kImageBorderKeptAtEdge = 0.25f;
 /// and the share of its confidence taken where it sits exactly on it.
 constexpr float kBlockGridReachPx = kSpreadHalvingPx;
 constexpr float kBlockGridDoubt = 0.75f;
+/// Where the codec's seams are all of the texture around an estimate (its
+/// blocks flattened, as in the dark), the grid alone pulls the match: a second
+/// doubt, of the estimates within twice that reach, in proportion to the
+/// seams' share of the texture above a gridless texture's.
+constexpr float kBlockGridSeamReachPx = 2.f * kBlockGridReachPx;
+constexpr float kBlockGridSeamDoubt = 0.9f;
 /// How far the smooth gradient's RMS may exceed the texture's, as a share of
 /// the texture's, next to a clipped highlight before the confidence halves:
 /// at 1.5 times the texture's the lobe outweighs it (specular_lobe_cue.hpp).

@@ -105,6 +105,7 @@ struct Matcher::Impl {
   std::vector<detail::SearchBand> bands;    ///< the finest level's search order
   detail::SlantCue slant;
   detail::SupportCue support;
+  detail::BlockGridCue block_grid;
   detail::ConsensusCue consensus;
   detail::ResidualFitCue residual_fit;
   detail::EdgeDistanceCue edge_distance;
@@ -249,9 +250,12 @@ void Matcher::Impl::applyConfidenceCues(int finest, detail::LevelMaps& out) {
   image_border.apply(out.disparity, p, detail::kImageBorderHalvingPx * level_px, out.confidence);
   // The block grid cue: on block-coded views, estimates the codec's grid may
   // have pulled to where the views' grids align.
-  detail::applyBlockGridCue(out.disparity, static_cast<float>(1 << finest),
-                            detail::alignedGridDisparity(pyramid.columnSteps(true), pyramid.columnSteps(false)),
-                            detail::kBlockGridReachPx, detail::kBlockGridDoubt, out.confidence);
+  const detail::BlockGridLayout grid{
+      detail::alignedGridDisparity(pyramid.columnSteps(true), pyramid.columnSteps(false)),
+      pyramid.columnSteps(true).strongestPhase()};
+  const detail::BlockGridDoubts grid_doubts{detail::kBlockGridReachPx, detail::kBlockGridDoubt,
+                                            detail::kBlockGridSeamReachPx, detail::kBlockGridSeamDoubt};
+  block_grid.apply(out.disparity, 1 << finest, grid, level.left, level.left_valid, p, grid_doubts, out.confidence);
   // The specular lobe cue: estimates a clipped highlight's lobe, not the
   // tissue's texture, has placed.
   specular_lobe.apply(out.disparity, level.left, level.left_valid, level.left_gx, resolved.saturation_grey, p,

@@ -2,7 +2,8 @@
 // JPEG round trips show their grid's column phase, a view cropped after coding
 // moves it, the views' phases give the disparity where their seams align, an
 // uncoded view shows none; the pyramid gathers the steps only when asked; the
-// cue's factor is exact near and away from the aligned disparities.
+// cue's factor is exact near and away from the aligned disparities, and its
+// seam term doubts more where the seams are all of the texture.
 #include <algorithm>
 #include <cstdio>
 #include <vector>
@@ -141,7 +142,7 @@ TEST(BlockGridCue, TheMatcherLowersEstimatesWhereCodedViewsGridsAlign) {
   // The same texture at 24 px (the grids align) and at 28 px (half a block
   // from it): coded, the first keeps about a quarter of the second's
   // confidence (the cue's 1 - 3/4); uncoded, as much. Measured: the medians'
-  // ratio 0.29 coded, 1.00 uncoded.
+  // ratio 0.26 coded, 1.00 uncoded.
   const double coded = medianConfidence(24, 75) / medianConfidence(28, 75);
   const double uncoded = medianConfidence(24, 0) / medianConfidence(28, 0);
   std::printf("median confidence at 24 px over 28 px: coded %.2f, uncoded %.2f\n", coded, uncoded);
@@ -160,13 +161,67 @@ TEST(BlockGridCue, LowersEstimatesNearTheAlignedDisparitiesOnly) {
   cv::Mat1f d(1, static_cast<int>(input_px.size()) + 1), c(d.size(), 0.8f);
   for (size_t i = 0; i < input_px.size(); ++i) d(0, static_cast<int>(i)) = input_px[i] / 2.f;
   d(0, d.cols - 1) = kNoDisparity;
-  bdis::detail::applyBlockGridCue(d, 2.f, 3, 1.f, 0.75f, c);
+  bdis::detail::BlockGridCue cue;
+  const bdis::detail::BlockGridDoubts plain{1.f, 0.75f, 2.f, 0.f};
+  cue.apply(d, 2, {3, 0}, cv::Mat1f(), cv::Mat1b(), 8, plain, c);
   for (size_t i = 0; i < expected.size(); ++i) EXPECT_NEAR(c(0, static_cast<int>(i)), 0.8f * expected[i], 1e-6f) << i;
   EXPECT_EQ(c(0, d.cols - 1), 0.8f);  // no estimate
   // Views without a grid: nothing changes.
   const cv::Mat1f before = c.clone();
-  bdis::detail::applyBlockGridCue(d, 2.f, -1, 1.f, 0.75f, c);
+  cue.apply(d, 2, {-1, 0}, cv::Mat1f(), cv::Mat1b(), 8, plain, c);
   EXPECT_EQ(cv::norm(c, before, cv::NORM_INF), 0.0);
+}
+
+/// A level-1 grey map (scale 2: a codec block is 4 columns) with the given
+/// step energy on the seam columns and off them: `seam_step` grey levels
+/// across every seam (columns 4k - 1 to 4k, the left phase 0) and `other_step`
+/// across every other column pair, all pixels valid.
+cv::Mat1f levelOneSteps(int w, int h, float seam_step, float other_step) {
+  cv::Mat1f grey(h, w);
+  for (int y = 0; y < h; ++y) {
+    float g = 100.f;
+    for (int x = 0; x < w; ++x) {
+      if (x > 0) g += (x % 4 == 0 ? seam_step : other_step) * (((x / 4) % 2) ? -1.f : 1.f);
+      grey(y, x) = g;
+    }
+  }
+  return grey;
+}
+
+TEST(BlockGridCue, DoubtsMoreWhereTheSeamsAreAllOfTheTexture) {
+  // Level 1, grids aligned at 0 modulo 8, seam term reach 2 px, doubt 0.9.
+  // Flat blocks with 4-level seams: the seams hold all the step energy, so
+  // an estimate at 16 input px keeps 0.25 x 0.1 of its confidence, at 17 px
+  // (the plain term's reach, half the seam term's) 1 x 0.55. Texture with
+  // equal steps on every column: the seams hold their gridless share (one
+  // column in 4), so only the plain term applies (0.25, then 1).
+  const int w = 40, h = 20;
+  const cv::Mat1b valid(h, w, uchar{1});
+  const bdis::detail::BlockGridDoubts doubts{1.f, 0.75f, 2.f, 0.9f};
+  cv::Mat1f d(h, w, kNoDisparity);
+  // Columns whose 9-column box holds two seams, as a gridless texture's
+  // share predicts (2.25 on average).
+  d(10, 18) = 16.f / 2.f;
+  d(10, 22) = 17.f / 2.f;
+  d(10, 26) = 20.f / 2.f;  // half a block from the aligned disparities: nothing
+  bdis::detail::BlockGridCue cue;
+  struct Case {
+    float seam_step, other_step, at16, at17;
+  };
+  for (const Case& k : {Case{4.f, 0.f, 0.25f * 0.1f, 0.55f}, Case{3.f, 3.f, 0.25f, 1.f}}) {
+    cv::Mat1f c(h, w, 0.8f);
+    cue.apply(d, 2, {0, 0}, levelOneSteps(w, h, k.seam_step, k.other_step), valid, 8, doubts, c);
+    EXPECT_NEAR(c(10, 18), 0.8f * k.at16, 1e-4f) << k.seam_step << " / " << k.other_step;
+    EXPECT_NEAR(c(10, 22), 0.8f * k.at17, 1e-4f) << k.seam_step << " / " << k.other_step;
+    EXPECT_NEAR(c(10, 26), 0.8f, 1e-6f);
+    EXPECT_EQ(c(0, 0), 0.8f);  // no estimate
+  }
+  // The left view's seams one input column later (phase 2: level column 1
+  // modulo 4): the same flat blocks' seams now lie off the counted columns,
+  // their share below the gridless one, and only the plain term applies.
+  cv::Mat1f c(h, w, 0.8f);
+  cue.apply(d, 2, {0, 2}, levelOneSteps(w, h, 4.f, 0.f), valid, 8, doubts, c);
+  EXPECT_NEAR(c(10, 18), 0.8f * 0.25f, 1e-4f);
 }
 
 }  // namespace
