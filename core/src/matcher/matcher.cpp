@@ -249,7 +249,8 @@ void Matcher::Impl::applyConfidenceCues(int finest, detail::LevelMaps& out) {
   // The image border cue: estimates the patches carry out to the image's edge.
   image_border.apply(out.disparity, p, detail::kImageBorderHalvingPx * level_px, out.confidence);
   // The block grid cue: on block-coded views, estimates the codec's grid may
-  // have pulled to where the views' grids align.
+  // have pulled to where the views' grids align, more so where its seams are
+  // the texture left.
   const detail::BlockGridLayout grid{
       detail::alignedGridDisparity(pyramid.columnSteps(true), pyramid.columnSteps(false)),
       pyramid.columnSteps(true).strongestPhase()};
