@@ -10,7 +10,6 @@ namespace bdis {
 namespace detail {
 namespace {
 
-constexpr int kMaxFlatStep = 16;  // grey levels: steps above are texture or edges, not block seams
 constexpr long kMinStepsPerPhase = 256;
 
 /// The flat steps of one row into one lane per phase; x from 1 to width - 1.

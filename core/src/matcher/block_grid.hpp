@@ -12,10 +12,12 @@ namespace bdis {
 namespace detail {
 
 constexpr int kCodecBlock = 8;  ///< px: JPEG's and MPEG's transform blocks
+/// Grey levels: steps above are texture or edges, not block seams.
+constexpr int kMaxFlatStep = 16;
 
 /// Per phase k (the step between pixel k-1 and k, modulo the block), the sum
-/// and count of the flat steps (at most 16 grey levels: larger ones are
-/// texture or edges, not block seams) between two pixels inside the view.
+/// and count of the flat steps (at most kMaxFlatStep) between two pixels
+/// inside the view.
 struct PhaseSteps {
   double sum[kCodecBlock] = {};
   long count[kCodecBlock] = {};

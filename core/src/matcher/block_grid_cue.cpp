@@ -11,17 +11,13 @@ namespace detail {
 
 namespace {
 
-// Steps above this are texture or edges, not a codec's seams (as PhaseSteps
-// counts them).
-constexpr float kSeamStepLimitGrey = 16.f;
-
 /// One row's squared grey steps, each between pixels x - 1 and x (0 at x = 0
-/// and where either is invalid), into `all`.
+/// and where either is invalid), capped as PhaseSteps caps them, into `all`.
 BDIS_ROW_LOOP
 void stepEnergyRow(int w, const float* __restrict grey, const uchar* __restrict valid, float* __restrict all) {
   all[0] = 0.f;
   for (int x = 1; x < w; ++x) {
-    const float step = std::min(std::fabs(grey[x] - grey[x - 1]), kSeamStepLimitGrey);
+    const float step = std::min(std::fabs(grey[x] - grey[x - 1]), static_cast<float>(kMaxFlatStep));
     all[x] = static_cast<float>((valid[x] != 0) & (valid[x - 1] != 0)) * (step * step);  // & : no branch
   }
 }

@@ -23,12 +23,13 @@ struct BlockGridLayout {
   int left_phase = 0;   ///< the left view's seams: between input columns k - 1 and k, k = this modulo 8
 };
 
-/// The two reaches and doubts of the cue (input px; shares of the confidence).
+/// The two reaches and doubts of the cue (input px; shares of the confidence;
+/// the matcher's are kBlockGrid* in confidence.hpp).
 struct BlockGridDoubts {
-  float reach = 1.f;       ///< the plain term's reach
-  float doubt = 0.75f;     ///< the plain term's doubt at an aligned disparity
-  float seam_reach = 2.f;  ///< the seam term's reach
-  float seam_doubt = 0.f;  ///< the seam term's doubt where the seams are all of the texture (0: off)
+  float reach;       ///< the plain term's reach
+  float doubt;       ///< the plain term's doubt at an aligned disparity
+  float seam_reach;  ///< the seam term's reach
+  float seam_doubt;  ///< the seam term's doubt where the seams are all of the texture (0: off)
 };
 
 class BlockGridCue {
@@ -39,7 +40,7 @@ class BlockGridCue {
   /// congruent to `layout.aligned` modulo the codec's block, by
   ///   (1 - doubt max(0, 1 - r / reach)) (1 - seam_doubt max(0, 1 - r / seam_reach) seams),
   /// `seams` the share of the left grey steps' energy (`grey`, steps between
-  /// valid neighbours, each at most 16 grey levels) on the level's seam
+  /// valid neighbours, each at most kMaxFlatStep) on the level's seam
   /// columns in a box of side 2 floor(`patch_px` / 2) + 1, above its share
   /// for texture without a grid (one column in 8 / 2^s), scaled to 0..1.
   /// The seam term needs two columns a block at the level (2^s <= 4); on
