@@ -28,15 +28,32 @@ void seamStepsRow(int w, const float* all, int period, int seam_column, float* s
   for (int x = seam_column; x < w; x += period) seam[x] = all[x];
 }
 
-/// One row's seam share above a gridless texture's (`base`), scaled to 0..1
-/// (0 where the box has no steps).
+/// A gridless texture's seam share in each column's box: the box's seam
+/// columns over its columns, both counted among those that carry a step
+/// (1..w-1), as the box sums clip the box to the row. An odd box over an
+/// even period holds one seam column more or less depending on where it
+/// sits, so a fixed one column in `period` would read a gridless texture
+/// as partly seams at one phase and too little at the other.
+void gridlessSeamShare(int w, int half, int period, int seam_column, std::vector<float>& scratch,
+                       std::vector<float>& columns, std::vector<float>& base) {
+  columns.assign(static_cast<size_t>(w), 0.f);  // first the seam columns, then all
+  for (int x = seam_column == 0 ? period : seam_column; x < w; x += period) columns[static_cast<size_t>(x)] = 1.f;
+  base.resize(static_cast<size_t>(w));
+  boxSumsAlongLine(w, half, columns.data(), scratch, base.data());
+  std::fill(columns.begin(), columns.end(), 1.f);
+  columns[0] = 0.f;
+  boxSumsAlongLine(w, half, columns.data(), scratch, columns.data());
+  for (int x = 0; x < w; ++x) base[x] = columns[x] > 0.f ? base[x] / columns[x] : 1.f / static_cast<float>(period);
+}
+
+/// One row's seam share above a gridless texture's (`base`, per column),
+/// scaled to 0..1 (0 where the box has no steps).
 BDIS_ROW_LOOP
-void seamShareRow(int w, const float* __restrict seam_sum, const float* __restrict all_sum, float base,
-                  float* __restrict share) {
-  const float inv_span = 1.f / (1.f - base);
+void seamShareRow(int w, const float* __restrict seam_sum, const float* __restrict all_sum,
+                  const float* __restrict base, float* __restrict share) {
   for (int x = 0; x < w; ++x) {
-    const float s = all_sum[x] > 1e-3f ? seam_sum[x] / all_sum[x] : base;
-    share[x] = std::min(1.f, std::max(0.f, (s - base) * inv_span));
+    const float s = all_sum[x] > 1e-3f ? seam_sum[x] / all_sum[x] : base[x];
+    share[x] = std::min(1.f, std::max(0.f, (s - base[x]) / (1.f - base[x])));
   }
 }
 
@@ -82,15 +99,17 @@ void BlockGridCue::apply(const cv::Mat1f& disparity, int level_scale, const Bloc
   // q - 1 and q, q = k / 2^s rounded (inside a level pixel for odd k at
   // level 1: then the nearer step carries it).
   const int seam_column = ((layout.left_phase + level_scale / 2) / level_scale) % period;
+  const int half = std::max(1, patch_px / 2);
+  gridlessSeamShare(w, half, period, seam_column, line_scratch_, box_columns_, gridless_share_);
   seams_.resize(static_cast<size_t>(w));
-  sums_.begin(w, h, std::max(1, patch_px / 2));
+  sums_.begin(w, h, half);
   sums_.sweep(
       [&](int y, float* seam, float* all) {
         stepEnergyRow(w, grey[y], valid[y], all);
         seamStepsRow(w, all, period, seam_column, seam);
       },
       [&](int y, const float* seam_sum, const float* all_sum) {
-        seamShareRow(w, seam_sum, all_sum, 1.f / static_cast<float>(period), seams_.data());
+        seamShareRow(w, seam_sum, all_sum, gridless_share_.data(), seams_.data());
         blockGridRow(w, disparity[y], scale, shift, 1.f / doubts.reach, doubts.doubt, 1.f / doubts.seam_reach,
                      doubts.seam_doubt, seams_.data(), confidence[y]);
       });

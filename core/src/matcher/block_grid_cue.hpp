@@ -42,7 +42,8 @@ class BlockGridCue {
   /// `seams` the share of the left grey steps' energy (`grey`, steps between
   /// valid neighbours, each at most kMaxFlatStep) on the level's seam
   /// columns in a box of side 2 floor(`patch_px` / 2) + 1, above its share
-  /// for texture without a grid (one column in 8 / 2^s), scaled to 0..1.
+  /// for texture without a grid (the box's seam columns over its columns,
+  /// about one in 8 / 2^s), scaled to 0..1.
   /// The seam term needs two columns a block at the level (2^s <= 4); on
   /// coarser levels, or with seam_doubt 0, only the plain term applies.
   /// Buffers are kept for the next frame of the same size.
@@ -52,6 +53,8 @@ class BlockGridCue {
  private:
   BoxSums sums_;  ///< of the seam columns' and all columns' step energy
   std::vector<float> seams_;  ///< one row's seam share, 0..1
+  std::vector<float> gridless_share_;  ///< per column, a gridless texture's seam share in its box
+  std::vector<float> box_columns_, line_scratch_;  ///< for gridless_share_
 };
 
 }  // namespace detail

@@ -193,15 +193,17 @@ TEST(BlockGridCue, DoubtsMoreWhereTheSeamsAreAllOfTheTexture) {
   // Flat blocks with 4-level seams: the seams hold all the step energy, so
   // an estimate at 16 input px keeps 0.25 x 0.1 of its confidence, at 17 px
   // (the plain term's reach, half the seam term's) 1 x 0.55. Texture with
-  // equal steps on every column: the seams hold their gridless share (one
-  // column in 4), so only the plain term applies (0.25, then 1).
+  // equal steps on every column: the seams hold their gridless share (the
+  // box's seam columns over its columns), so only the plain term applies
+  // (0.25, then 1).
   const int w = 40, h = 20;
   const cv::Mat1b valid(h, w, uchar{1});
   const bdis::detail::BlockGridDoubts doubts{1.f, 0.75f, 2.f, 0.9f};
   cv::Mat1f d(h, w, kNoDisparity);
-  // Columns whose 9-column box holds two seams, as a gridless texture's
-  // share predicts (2.25 on average).
+  // Columns whose 9-column box holds two seams; column 20's holds three,
+  // and its gridless share is three in nine, not one in four.
   d(10, 18) = 16.f / 2.f;
+  d(10, 20) = 16.f / 2.f;
   d(10, 22) = 17.f / 2.f;
   d(10, 26) = 20.f / 2.f;  // half a block from the aligned disparities: nothing
   bdis::detail::BlockGridCue cue;
@@ -212,6 +214,7 @@ TEST(BlockGridCue, DoubtsMoreWhereTheSeamsAreAllOfTheTexture) {
     cv::Mat1f c(h, w, 0.8f);
     cue.apply(d, 2, {0, 0}, levelOneSteps(w, h, k.seam_step, k.other_step), valid, 8, doubts, c);
     EXPECT_NEAR(c(10, 18), 0.8f * k.at16, 1e-4f) << k.seam_step << " / " << k.other_step;
+    EXPECT_NEAR(c(10, 20), 0.8f * k.at16, 1e-4f) << k.seam_step << " / " << k.other_step;
     EXPECT_NEAR(c(10, 22), 0.8f * k.at17, 1e-4f) << k.seam_step << " / " << k.other_step;
     EXPECT_NEAR(c(10, 26), 0.8f, 1e-6f);
     EXPECT_EQ(c(0, 0), 0.8f);  // no estimate
