@@ -110,13 +110,14 @@ void SpecularLobeCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& grey, c
   int first = 0, last = 0;
   markClippedBlocks(grey, valid, kClippedGreyShare * static_cast<float>(saturation_grey), first, last);
   if (first > last) return;
-  const int reach = std::max(1, kReachPatches * patch_px / 2);  // blocks
+  const int fade_px = kFadePatches * patch_px;  // level px
+  const int reach = std::max(1, kReachFades * fade_px / 2);  // blocks
   const int by0 = std::max(0, first - reach), by1 = std::min(bh - 1, last + reach), rows = by1 - by0 + 1;
   distanceTransform(by0, by1);
-  // exp(-2 D / p) at the whole block distances within reach, 0 beyond: no exp per block.
+  // exp(-2 D / fade) at the whole block distances within reach, 0 beyond: no exp per block.
   near_table_.resize(static_cast<size_t>(reach) + 2);
   for (int d = 0; d <= reach; ++d) {
-    near_table_[static_cast<size_t>(d)] = std::exp(-2.f * static_cast<float>(d) / static_cast<float>(patch_px));
+    near_table_[static_cast<size_t>(d)] = std::exp(-2.f * static_cast<float>(d) / static_cast<float>(fade_px));
   }
   near_table_.back() = 0.f;
   block_factor_.resize(static_cast<size_t>(bw));

@@ -24,7 +24,7 @@ class SpecularLobeCue {
   /// kNoDisparity where none) by agreement() of (ratio - 1) * near with
   /// `halving`. Both are taken on 2 x 2 blocks of pixels (as the box cues,
   /// box_sums.hpp), and a block's pixels share its factor:
-  /// - the smooth image is the blocks' mean grey over a box of 2 rs + 1
+  /// - the smooth image is the mean grey of the pixels of a box of 2 rs + 1
   ///   blocks, rs = max(1, patch_px / 8), and its gradient the central
   ///   difference of that along the row (one-sided at the ends), in grey
   ///   levels per level px;
@@ -33,15 +33,16 @@ class SpecularLobeCue {
   ///   (`gradient` - that gradient)^2; ratio is the square root of the
   ///   smooth energy over the texture energy, both summed over a box of
   ///   2 rg + 1 blocks, rg = max(1, patch_px / 4) (about a patch);
-  /// - near = exp(-2 D / patch_px), D the city-block distance in blocks to
-  ///   the nearest block with a clipped pixel: an invalid one of grey at
-  ///   least kClippedGreyShare * `saturation_grey` (black frame pixels and
-  ///   their dark seam are darker).
+  /// - near = exp(-2 D / (kFadePatches patch_px)), falling by e every
+  ///   kFadePatches patch sides, D the city-block distance in blocks (2 D
+  ///   level px) to the nearest block with a clipped pixel: an invalid one
+  ///   of grey at least kClippedGreyShare * `saturation_grey` (black frame
+  ///   pixels and their dark seam are darker).
   /// Where the smooth energy does not exceed the texture's (or 1e-6), the
   /// factor is 1.
   /// A frame without clipped pixels (or `saturation_grey` above 255) keeps
-  /// its confidence, and so does every block row further than kReachPatches
-  /// patch sides from a clipped pixel. Boxes are clipped to the map and to
+  /// its confidence, and so does every block row further than kReachFades
+  /// fades from a clipped pixel. Boxes are clipped to the map and to
   /// those block rows. Buffers are kept for the next frame.
   void apply(const cv::Mat1f& disparity, const cv::Mat1f& grey, const cv::Mat1b& valid, const cv::Mat1f& gradient,
              int saturation_grey, int patch_px, float halving, cv::Mat1f& confidence);
@@ -50,9 +51,13 @@ class SpecularLobeCue {
   /// saturation grey: one clipped input pixel among bright ones reaches it, a
   /// black frame's or its dark seam's pixels do not.
   static constexpr float kClippedGreyShare = 0.75f;
-  /// Block rows further than this many patch sides from every clipped pixel
-  /// are left as they are: there near < exp(-4), under 2 % of the cue.
-  static constexpr int kReachPatches = 4;
+  /// The patch sides over which near falls by e. A lobe's ramp spans several
+  /// patches: at one patch side the outer part of the wrong ring kept most
+  /// of its confidence.
+  static constexpr int kFadePatches = 2;
+  /// Block rows further than this many fades from every clipped pixel are
+  /// left as they are: there near < exp(-4), under 2 % of the cue.
+  static constexpr int kReachFades = 4;
 
  private:
   /// Marks the blocks holding a clipped pixel (distance 0, the others far)

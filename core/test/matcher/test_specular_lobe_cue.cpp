@@ -81,23 +81,16 @@ float referenceFactor(const LevelImage& im, int x, int y) {
       if (clipped(u, v)) distance = std::min(distance, std::abs(u / 2 - bx) + std::abs(v / 2 - by));
     }
   }
-  if (distance > SpecularLobeCue::kReachPatches * kPatch / 2) return 1.f;
-  auto blockGrey = [&](int i, int j) {
-    double sum = 0, n = 0;
-    for (int v = 2 * j; v <= std::min(2 * j + 1, h - 1); ++v) {
-      for (int u = 2 * i; u <= std::min(2 * i + 1, w - 1); ++u) {
-        sum += im.grey(v, u);
-        n += 1;
-      }
-    }
-    return sum / n;
-  };
+  const int fade = SpecularLobeCue::kFadePatches * kPatch;
+  if (distance > SpecularLobeCue::kReachFades * fade / 2) return 1.f;
+  // The mean grey of the pixels of a box of blocks (an odd size's last
+  // blocks hold fewer pixels and weigh less).
   auto smooth = [&](int i, int j) {
     const int r = std::max(1, kPatch / 8);
     double sum = 0, n = 0;
-    for (int jj = std::max(0, j - r); jj <= std::min(bh - 1, j + r); ++jj) {
-      for (int ii = std::max(0, i - r); ii <= std::min(bw - 1, i + r); ++ii) {
-        sum += blockGrey(ii, jj);
+    for (int v = 2 * std::max(0, j - r); v <= std::min(2 * (j + r) + 1, h - 1); ++v) {
+      for (int u = 2 * std::max(0, i - r); u <= std::min(2 * (i + r) + 1, w - 1); ++u) {
+        sum += im.grey(v, u);
         n += 1;
       }
     }
@@ -121,19 +114,20 @@ float referenceFactor(const LevelImage& im, int x, int y) {
   texture_energy = std::max(texture_energy, 1e-6);
   if (!(smooth_energy > texture_energy)) return 1.f;
   const double excess = (std::sqrt(smooth_energy / texture_energy) - 1.0) *
-                        std::exp(-2.0 * distance / kPatch);
+                        std::exp(-2.0 * distance / fade);
   return static_cast<float>(1.0 / (1.0 + excess * excess / (kHalving * kHalving)));
 }
 
-/// The estimates 8-16 px from the lobe's centre (64, 48): how many, and how
-/// many of them have a confidence `c` passes.
+/// The estimates `inner`-`outer` px from the lobe's centre (64, 48): how
+/// many, and how many of them have a confidence `c` passes.
 template <class Pass>
-std::pair<int, int> ringCount(const cv::Mat1f& d, const cv::Mat1f& c, Pass pass) {
+std::pair<int, int> ringCount(const cv::Mat1f& d, const cv::Mat1f& c, Pass pass, float inner = 8.f,
+                              float outer = 16.f) {
   int ring = 0, passed = 0;
   for (int y = 0; y < d.rows; ++y) {
     for (int x = 0; x < d.cols; ++x) {
       const float r = std::hypot(x - 64.f, y - 48.f);
-      if (r < 8.f || r > 16.f || d(y, x) < 0.f) continue;
+      if (r < inner || r > outer || d(y, x) < 0.f) continue;
       ++ring;
       passed += pass(c(y, x)) ? 1 : 0;
     }
@@ -152,7 +146,13 @@ TEST(SpecularLobeCue, LowersTheRingOfALobeOverFaintTexture) {
   const auto [ring, lowered] = ringCount(d, c, [](float v) { return v < 0.45f; });
   EXPECT_GT(ring, 300);
   EXPECT_GT(lowered, ring * 3 / 4) << lowered << " of " << ring;
-  // Beyond the reach (4 patch sides from the core), untouched.
+  // Two to three patch sides out the ramp still outweighs the texture:
+  // 657 of 876 below 0.6 with the cue fading over two patch sides, 211 when
+  // it faded over one.
+  const auto [outer_ring, outer_lowered] = ringCount(d, c, [](float v) { return v < 0.6f; }, 20.f, 26.f);
+  EXPECT_GT(outer_ring, 300);
+  EXPECT_GT(outer_lowered, outer_ring * 2 / 3) << outer_lowered << " of " << outer_ring;
+  // Beyond the reach (8 patch sides from the core), untouched.
   EXPECT_EQ(c(2, 2), 0.9f);
   EXPECT_EQ(c(93, 125), 0.9f);
   // Pixels without an estimate keep what they had.

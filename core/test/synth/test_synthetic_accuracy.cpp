@@ -372,8 +372,8 @@ TEST(SyntheticBehaviour, SpecularLobeAroundAClippedHighlightIsNotConfident) {
   // lobe that moves with the view; the tissue in a ring around it matches
   // the lobe, about 3 px too far, and nothing but the lobe cue doubts it.
   // The estimates within 24 px of a clipped left pixel, published, wrong at
-  // 0.9 or more: 6.92% of the ring's pixels (8.25% without the cue; with it
-  // 1.1 points fewer of them at 0.9 or more, 42.5% against 44.1%).
+  // 0.9 or more: 6.17% of the ring's pixels (6.78% with the cue fading over
+  // one patch side instead of two, 8.25% without the cue).
   SceneConfig config = variant("specular");
   config.seed = 19;
   const auto near_clipped = [](const SyntheticFrame& f) {
@@ -384,7 +384,7 @@ TEST(SyntheticBehaviour, SpecularLobeAroundAClippedHighlightIsNotConfident) {
   const RegionStats ring = regionStats(bdisRun(config), near_clipped, 0.9f);
   print("within 24 px of clipped", ring);
   EXPECT_GT(ring.pixels, 20000);
-  EXPECT_LE(ring.share(ring.confident_bad2), 0.075);
+  EXPECT_LE(ring.share(ring.confident_bad2), 0.065);
 }
 
 /// The estimates of a run pooled for the confidence and variance analyses.
