@@ -53,7 +53,8 @@ void seamShareRow(int w, const float* __restrict seam_sum, const float* __restri
                   const float* __restrict base, float* __restrict share) {
   for (int x = 0; x < w; ++x) {
     const float s = all_sum[x] > 1e-3f ? seam_sum[x] / all_sum[x] : base[x];
-    share[x] = std::min(1.f, std::max(0.f, (s - base[x]) / (1.f - base[x])));
+    // A box of one step on a seam column has a base of 1: share 0, not 0 / 0.
+    share[x] = std::min(1.f, std::max(0.f, (s - base[x]) / std::max(1e-6f, 1.f - base[x])));
   }
 }
 
