@@ -35,15 +35,15 @@ void seamStepsRow(int w, const float* all, int period, int seam_column, float* s
 /// sits, so a fixed one column in `period` would read a gridless texture
 /// as partly seams at one phase and too little at the other.
 void gridlessSeamShare(int w, int half, int period, int seam_column, std::vector<float>& scratch,
-                       std::vector<float>& columns, std::vector<float>& base) {
-  columns.assign(static_cast<size_t>(w), 0.f);  // first the seam columns, then all
-  for (int x = seam_column == 0 ? period : seam_column; x < w; x += period) columns[static_cast<size_t>(x)] = 1.f;
+                       std::vector<float>& seam_columns, std::vector<float>& base) {
+  seam_columns.assign(static_cast<size_t>(w), 0.f);
+  for (int x = seam_column == 0 ? period : seam_column; x < w; x += period) seam_columns[static_cast<size_t>(x)] = 1.f;
   base.resize(static_cast<size_t>(w));
-  boxSumsAlongLine(w, half, columns.data(), scratch, base.data());
-  std::fill(columns.begin(), columns.end(), 1.f);
-  columns[0] = 0.f;
-  boxSumsAlongLine(w, half, columns.data(), scratch, columns.data());
-  for (int x = 0; x < w; ++x) base[x] = columns[x] > 0.f ? base[x] / columns[x] : 1.f / static_cast<float>(period);
+  boxSumsAlongLine(w, half, seam_columns.data(), scratch, base.data());
+  for (int x = 0; x < w; ++x) {
+    const int columns = std::min(w - 1, x + half) - std::max(1, x - half) + 1;
+    base[x] = columns > 0 ? base[x] / static_cast<float>(columns) : 1.f / static_cast<float>(period);
+  }
 }
 
 /// One row's seam share above a gridless texture's (`base`, per column),
@@ -101,7 +101,7 @@ void BlockGridCue::apply(const cv::Mat1f& disparity, int level_scale, const Bloc
   // level 1: then the nearer step carries it).
   const int seam_column = ((layout.left_phase + level_scale / 2) / level_scale) % period;
   const int half = std::max(1, patch_px / 2);
-  gridlessSeamShare(w, half, period, seam_column, line_scratch_, box_columns_, gridless_share_);
+  gridlessSeamShare(w, half, period, seam_column, line_scratch_, seam_columns_, gridless_share_);
   seams_.resize(static_cast<size_t>(w));
   sums_.begin(w, h, half);
   sums_.sweep(

@@ -54,7 +54,7 @@ class BlockGridCue {
   BoxSums sums_;  ///< of the seam columns' and all columns' step energy
   std::vector<float> seams_;  ///< one row's seam share, 0..1
   std::vector<float> gridless_share_;  ///< per column, a gridless texture's seam share in its box
-  std::vector<float> box_columns_, line_scratch_;  ///< for gridless_share_
+  std::vector<float> seam_columns_, line_scratch_;  ///< for gridless_share_
 };
 
 }  // namespace detail
