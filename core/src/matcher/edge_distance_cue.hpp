@@ -27,6 +27,11 @@ class EdgeDistanceCue {
   /// kept for the next frame of the same size.
   void apply(const cv::Mat1f& disparity, float jump, float halving, cv::Mat1f& confidence);
 
+  /// The last apply()'s distance of each 2 x 2 block from the nearest block
+  /// at a jump, in blocks (city-block; 1e6 in a frame without a jump):
+  /// (h + 1) / 2 rows of (w + 1) / 2.
+  const cv::Mat1f& blockDistances() const { return block_distance_; }
+
  private:
   /// The blocks of block row `by` at a jump of more than `jump` (0) or not
   /// (far), into `blocks`.

@@ -41,20 +41,21 @@ inline float clippedPixels(int b, int n, int rb) {
   return static_cast<float>(std::min(2 * (b + rb) + 1, n - 1) - 2 * std::max(b - rb, 0) + 1);
 }
 
-/// Per block, the factor of the four agreements. `mean`, `above` and
-/// `below` point at block 0 of padded block-mean rows (rb blocks of
-/// kNoDisparity before and after); the slope is per level px.
+/// Per block, the factor of the four agreements, and the squared slope
+/// (per level px). `mean`, `above` and `below` point at block 0 of padded
+/// block-mean rows (rb blocks of kNoDisparity before and after).
 BDIS_ROW_LOOP
 void slantFactorRow(int bw, int rb, const float* __restrict above, const float* __restrict mean,
                     const float* __restrict below, float inv_halving_sq, const float* __restrict gradient_sq_sum,
                     const float* __restrict gradient_abs_sum, const float* __restrict inv_box_columns,
                     float inv_box_rows, float inv_misfit_halving_sq, float inv_bend_halving_sq,
-                    float inv_lone_edge_halving_sq, float* __restrict factor) {
+                    float inv_lone_edge_halving_sq, float* __restrict factor, float* __restrict slopes_sq) {
   const float inv_step = 1.f / static_cast<float>(2 * rb);
   for (int x = 0; x < bw; ++x) {
     const float gx = slopeAcross(mean[x - rb], mean[x], mean[x + rb], inv_step);
     const float gy = slopeAcross(above[x], mean[x], below[x], inv_step);
     const float slope_sq = gx * gx + gy * gy;
+    slopes_sq[x] = slope_sq;
     const float inv_box_pixels = inv_box_columns[x] * inv_box_rows;
     const float gradient_sq = gradient_sq_sum[x] * inv_box_pixels;
     const float gradient_abs = gradient_abs_sum[x] * inv_box_pixels;
@@ -84,6 +85,7 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
   inv_box_columns_.resize(static_cast<size_t>(bw));
   for (int bx = 0; bx < bw; ++bx) inv_box_columns_[static_cast<size_t>(bx)] = 1.f / clippedPixels(bx, w, rb);
   factor_.resize(static_cast<size_t>(bw));
+  slopes_sq_.create(bh, bw);
 
   // agreement(|grad D| * patch_px, halving) = agreement(|grad D|, halving / patch_px),
   // and likewise for the misfit |grad D| * patch_px * g.
@@ -104,7 +106,7 @@ void SlantCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int 
         slantFactorRow(bw, rb, by >= rb ? mean_[by - rb] + rb : none, mean_[by] + rb,
                        by + rb < bh ? mean_[by + rb] + rb : none, inv_halving_sq, gradient_sq_sum, gradient_abs_sum,
                        inv_box_columns_.data(), 1.f / clippedPixels(by, h, rb), inv_misfit_halving_sq,
-                       inv_bend_halving_sq, inv_lone_edge_halving_sq, factor_.data());
+                       inv_bend_halving_sq, inv_lone_edge_halving_sq, factor_.data(), slopes_sq_[by]);
         multiplyBlockRowAtEstimates(by, factor_.data(), pixel_factor_, disparity, confidence);
       });
 }

@@ -54,6 +54,10 @@ class SlantCue {
   void apply(const cv::Mat1f& disparity, const cv::Mat1f& gradient, int patch_px, float halving,
              float misfit_halving, float bend_halving, float lone_edge_halving, cv::Mat1f& confidence);
 
+  /// The last apply()'s |grad D|^2 per 2 x 2 block (level px of disparity
+  /// per level px, squared): (h + 1) / 2 rows of (w + 1) / 2.
+  const cv::Mat1f& blockSlopesSquared() const { return slopes_sq_; }
+
  private:
   BlockEstimates blocks_;  ///< the estimates' sum and count per 2 x 2 block
   BoxSums sums_;           ///< of those, over boxes of blocks
@@ -64,6 +68,7 @@ class SlantCue {
   /// none; rb blocks of kNoDisparity each side, and one all-kNoDisparity row
   /// last (stands in for the rows above the first and below the last).
   cv::Mat1f mean_;
+  cv::Mat1f slopes_sq_;  ///< blockSlopesSquared()
 };
 
 }  // namespace detail
