@@ -13,6 +13,7 @@
 
 #include "band_schedule.hpp"
 #include "block_grid_cue.hpp"
+#include "blurred_step_cue.hpp"
 #include "confidence.hpp"
 #include "confidence_calibration.hpp"
 #include "consensus_cue.hpp"
@@ -109,6 +110,7 @@ struct Matcher::Impl {
   detail::ConsensusCue consensus;
   detail::ResidualFitCue residual_fit;
   detail::EdgeDistanceCue edge_distance;
+  detail::BlurredStepCue blurred_step;     ///< the blurred step cue
   detail::ImageBorderCue image_border;     ///< the image border cue
   detail::SpecularLobeCue specular_lobe;   ///< the specular lobe cue
   detail::NeighbourhoodCue neighbourhood;  ///< the neighbourhood cue
@@ -246,6 +248,10 @@ void Matcher::Impl::applyConfidenceCues(int finest, detail::LevelMaps& out) {
   // The edge distance cue: estimates near a jump between neighbours.
   edge_distance.apply(out.disparity, detail::kEdgeJumpPx * level_px,
                       detail::kEdgeHalvingPatches * static_cast<float>(p), out.confidence);
+  // The blurred step cue: estimates on a ramp the patches made of a small
+  // step, steep beside flat tissue with no jump for the edge cue to see.
+  blurred_step.apply(out.disparity, slant.blockSlopesSquared(), edge_distance.blockDistances(), p,
+                     detail::kBlurredStepSlopeRatio, detail::kBlurredStepHalvingPx * level_px, out.confidence);
   // The image border cue: estimates the patches carry out to the image's edge.
   image_border.apply(out.disparity, p, detail::kImageBorderHalvingPx * level_px, out.confidence);
   // The block grid cue: on block-coded views, estimates the codec's grid may
