@@ -27,18 +27,25 @@ constexpr float kHalving = 1.f;   // level px of excess slope across a patch (2 
 constexpr float kJump = 1.f;      // level px between neighbours: a jump for the edge cue
 constexpr float kOff = 1e6f;      // a halving no slant cue term reaches here
 
-/// The slant and edge distance cues' block maps for `d`, then the blurred
-/// step cue on a confidence of 1; returns that confidence.
-cv::Mat1f applyCue(const cv::Mat1f& d, BlurredStepCue& cue) {
+/// The slant and edge distance cues run on `d`, for their block maps.
+struct BlockMaps {
   SlantCue slant;
   EdgeDistanceCue edge;
-  cv::Mat1f unused(d.size(), 1.f);
-  slant.apply(d, cv::Mat1f(d.size(), 0.f), kPatch, kOff, kOff, kOff, kOff, unused);
-  edge.apply(d, kJump, 2.f * kPatch, unused);
+  explicit BlockMaps(const cv::Mat1f& d) {
+    cv::Mat1f unused(d.size(), 1.f);
+    slant.apply(d, cv::Mat1f(d.size(), 0.f), kPatch, kOff, kOff, kOff, kOff, unused);
+    edge.apply(d, kJump, 2.f * kPatch, unused);
+  }
+};
+
+/// The blurred step cue on `d` from `maps`, on a confidence of 1; returns that confidence.
+cv::Mat1f applyCue(const cv::Mat1f& d, const BlockMaps& maps, BlurredStepCue& cue) {
   cv::Mat1f c(d.size(), 1.f);
-  cue.apply(d, slant.blockSlopesSquared(), edge.blockDistances(), kPatch, kRatio, kHalving, c);
+  cue.apply(d, maps.slant.blockSlopesSquared(), maps.edge.blockDistances(), kPatch, kRatio, kHalving, c);
   return c;
 }
+
+cv::Mat1f applyCue(const cv::Mat1f& d, BlurredStepCue& cue) { return applyCue(d, BlockMaps(d), cue); }
 
 /// A map constant along y whose columns follow `profile(x)`.
 template <class Profile>
@@ -180,14 +187,9 @@ TEST(BlurredStepCue, MatchesABruteForceReferenceOnRandomMaps) {
         d(y, x) = u < 0.03f ? kNoDisparity : 10.f + 0.3f * static_cast<float>((x / 7) % 3) * x + (y > 20 ? 3.f : 0.f);
       }
     }
-    SlantCue slant;
-    EdgeDistanceCue edge;
-    cv::Mat1f unused(d.size(), 1.f);
-    slant.apply(d, cv::Mat1f(d.size(), 0.f), kPatch, kOff, kOff, kOff, kOff, unused);
-    edge.apply(d, kJump, 2.f * kPatch, unused);
-    cv::Mat1f c(d.size(), 1.f);
-    cue.apply(d, slant.blockSlopesSquared(), edge.blockDistances(), kPatch, kRatio, kHalving, c);
-    const cv::Mat1f want = bruteForce(d, slant.blockSlopesSquared(), edge.blockDistances());
+    const BlockMaps maps(d);
+    const cv::Mat1f c = applyCue(d, maps, cue);
+    const cv::Mat1f want = bruteForce(d, maps.slant.blockSlopesSquared(), maps.edge.blockDistances());
     float worst = 0.f;
     int lowered = 0;
     for (int y = 0; y < d.rows; ++y) {
