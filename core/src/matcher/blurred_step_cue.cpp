@@ -6,7 +6,7 @@
 #include <limits>
 
 #include "box_sums.hpp"       // columnPairsToBlocks, halfPatchInBlocks, multiplyBlockRowAtEstimates
-#include "confidence.hpp"     // agreement
+#include "confidence.hpp"     // agreement, kEdgeHalvingPatches
 #include "patch_kernels.hpp"  // BDIS_ROW_LOOP
 
 namespace bdis {
@@ -143,7 +143,8 @@ void BlurredStepCue::apply(const cv::Mat1f& disparity, const cv::Mat1f& block_sl
   boxExtremum<false>(flattest_, 2 * rb, scratch_, padded_, flattest_);
 
   factor_.resize(static_cast<size_t>(bw));
-  const float inv_edge_reach = 1.f / (2.f * p);
+  // The gate opens where the edge distance cue has halved the confidence.
+  const float inv_edge_reach = 1.f / (kEdgeHalvingPatches * p);
   const float inv_halving_sq = 1.f / (halving * halving);
   for (int by = 0; by < bh; ++by) {
     factorRow(bw, steepest_[by], flattest_[by], block_edge_distances[by], slope_ratio, inv_edge_reach,

@@ -29,10 +29,12 @@ class BlurredStepCue {
   /// where no block within rb blocks holds a pixel without an estimate (rb =
   /// halfPatchInBlocks); excess = max(0, the largest counted S within rb -
   /// `slope_ratio` * the smallest within 2 rb), 0 where none is counted. A
-  /// block at a jump is the edge distance cue's: the excess is scaled by
-  /// min(1, (2 J + 1/2) / (2 `patch_px`)), J its distance in blocks from the
-  /// nearest jump (EdgeDistanceCue::blockDistances()). The maxima and minima
-  /// are separable; buffers are kept for the next frame of the same size.
+  /// block near a jump is the edge distance cue's: the excess is scaled by
+  /// min(1, (2 J + 1/2) / (kEdgeHalvingPatches `patch_px`)), J its distance
+  /// in blocks from the nearest jump (EdgeDistanceCue::blockDistances()),
+  /// so the gate opens where that cue has halved the confidence. The maxima
+  /// and minima are separable; buffers are kept for the next frame of the
+  /// same size.
   void apply(const cv::Mat1f& disparity, const cv::Mat1f& block_slopes_sq, const cv::Mat1f& block_edge_distances,
              int patch_px, float slope_ratio, float halving, cv::Mat1f& confidence);
 
