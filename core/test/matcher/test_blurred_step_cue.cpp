@@ -31,17 +31,17 @@ constexpr float kOff = 1e6f;      // a halving no slant cue term reaches here
 struct BlockMaps {
   SlantCue slant;
   EdgeDistanceCue edge;
-  explicit BlockMaps(const cv::Mat1f& d) {
+  explicit BlockMaps(const cv::Mat1f& d, int patch = kPatch) {
     cv::Mat1f unused(d.size(), 1.f);
-    slant.apply(d, cv::Mat1f(d.size(), 0.f), kPatch, kOff, kOff, kOff, kOff, unused);
-    edge.apply(d, kJump, 2.f * kPatch, unused);
+    slant.apply(d, cv::Mat1f(d.size(), 0.f), patch, kOff, kOff, kOff, kOff, unused);
+    edge.apply(d, kJump, 2.f * static_cast<float>(patch), unused);
   }
 };
 
 /// The blurred step cue on `d` from `maps`, on a confidence of 1; returns that confidence.
-cv::Mat1f applyCue(const cv::Mat1f& d, const BlockMaps& maps, BlurredStepCue& cue) {
+cv::Mat1f applyCue(const cv::Mat1f& d, const BlockMaps& maps, BlurredStepCue& cue, int patch = kPatch) {
   cv::Mat1f c(d.size(), 1.f);
-  cue.apply(d, maps.slant.blockSlopesSquared(), maps.edge.blockDistances(), kPatch, kRatio, kHalving, c);
+  cue.apply(d, maps.slant.blockSlopesSquared(), maps.edge.blockDistances(), patch, kRatio, kHalving, c);
   return c;
 }
 
@@ -131,9 +131,11 @@ TEST(BlurredStepCue, FlatMapKeepsItsConfidence) {
   EXPECT_EQ(cv::countNonZero(applyCue(d, cue) != 1.f), 0);
 }
 
-/// The cue's definition pixel by pixel, from the same block maps.
-cv::Mat1f bruteForce(const cv::Mat1f& d, const cv::Mat1f& slopes_sq, const cv::Mat1f& edge_blocks) {
-  const int bw = slopes_sq.cols, bh = slopes_sq.rows, rb = 2;
+/// The cue's definition pixel by pixel, from the same block maps, for patches
+/// of `patch` px (rb = patch / 4 rounded half up, at least 1).
+cv::Mat1f bruteForce(const cv::Mat1f& d, const cv::Mat1f& slopes_sq, const cv::Mat1f& edge_blocks, int patch) {
+  const int bw = slopes_sq.cols, bh = slopes_sq.rows, rb = std::max(1, (patch / 2 + 1) / 2);
+  const float p = static_cast<float>(patch);
   auto hole = [&](int bx, int by) {
     for (int y = 2 * by; y < std::min(2 * by + 2, d.rows); ++y) {
       for (int x = 2 * bx; x < std::min(2 * bx + 2, d.cols); ++x) {
@@ -157,13 +159,13 @@ cv::Mat1f bruteForce(const cv::Mat1f& d, const cv::Mat1f& slopes_sq, const cv::M
       for (int y = std::max(0, by - 2 * rb); y <= std::min(bh - 1, by + 2 * rb); ++y) {
         for (int x = std::max(0, bx - 2 * rb); x <= std::min(bw - 1, bx + 2 * rb); ++x) {
           if (!counted(x, y)) continue;
-          const float s = std::sqrt(slopes_sq(y, x)) * kPatch;
+          const float s = std::sqrt(slopes_sq(y, x)) * p;
           flattest = std::min(flattest, s);
           if (std::abs(x - bx) <= rb && std::abs(y - by) <= rb) steepest = std::max(steepest, s);
         }
       }
       const float excess = std::max(0.f, steepest - kRatio * flattest);
-      const float gate = std::min(1.f, (2.f * edge_blocks(by, bx) + 0.5f) / (2.f * kPatch));
+      const float gate = std::min(1.f, (2.f * edge_blocks(by, bx) + 0.5f) / (2.f * p));
       const float e = excess * gate / kHalving;
       for (int y = 2 * by; y < std::min(2 * by + 2, d.rows); ++y) {
         for (int x = 2 * bx; x < std::min(2 * bx + 2, d.cols); ++x) {
@@ -178,29 +180,35 @@ cv::Mat1f bruteForce(const cv::Mat1f& d, const cv::Mat1f& slopes_sq, const cv::M
 TEST(BlurredStepCue, MatchesABruteForceReferenceOnRandomMaps) {
   cv::RNG rng(5);
   BlurredStepCue cue;  // one object for all: buffers reused across sizes
-  for (const cv::Size size : {cv::Size(61, 37), cv::Size(40, 30), cv::Size(9, 33), cv::Size(3, 3)}) {
-    // Smooth patches of slope with steps and holes.
-    cv::Mat1f d(size);
-    for (int y = 0; y < d.rows; ++y) {
-      for (int x = 0; x < d.cols; ++x) {
-        const float u = rng.uniform(0.f, 1.f);
-        d(y, x) = u < 0.03f ? kNoDisparity : 10.f + 0.3f * static_cast<float>((x / 7) % 3) * x + (y > 20 ? 3.f : 0.f);
+  // Patches of 8 px take the kernels of the box sides known when compiling
+  // (5 and 9 blocks); 4 and 12 px, sides 3 / 5 and 7 / 13, the general ones.
+  for (const int patch : {8, 4, 12}) {
+    for (const cv::Size size : {cv::Size(61, 37), cv::Size(40, 30), cv::Size(9, 33), cv::Size(3, 3)}) {
+      // Smooth patches of slope with steps, and a few holes: enough that the
+      // hole rule leaves some slopes out, few enough that it counts others.
+      cv::Mat1f d(size);
+      for (int y = 0; y < d.rows; ++y) {
+        for (int x = 0; x < d.cols; ++x) {
+          const float u = rng.uniform(0.f, 1.f);
+          d(y, x) =
+              u < 0.004f ? kNoDisparity : 10.f + 0.3f * static_cast<float>((x / 7) % 3) * x + (y > 20 ? 3.f : 0.f);
+        }
       }
-    }
-    const BlockMaps maps(d);
-    const cv::Mat1f c = applyCue(d, maps, cue);
-    const cv::Mat1f want = bruteForce(d, maps.slant.blockSlopesSquared(), maps.edge.blockDistances());
-    float worst = 0.f;
-    int lowered = 0;
-    for (int y = 0; y < d.rows; ++y) {
-      for (int x = 0; x < d.cols; ++x) {
-        worst = std::max(worst, std::abs(c(y, x) - want(y, x)));
-        lowered += want(y, x) < 0.99f;
+      const BlockMaps maps(d, patch);
+      const cv::Mat1f c = applyCue(d, maps, cue, patch);
+      const cv::Mat1f want = bruteForce(d, maps.slant.blockSlopesSquared(), maps.edge.blockDistances(), patch);
+      float worst = 0.f;
+      int lowered = 0;
+      for (int y = 0; y < d.rows; ++y) {
+        for (int x = 0; x < d.cols; ++x) {
+          worst = std::max(worst, std::abs(c(y, x) - want(y, x)));
+          lowered += want(y, x) < 0.99f;
+        }
       }
-    }
-    EXPECT_LT(worst, 1e-5f) << size;
-    if (size.area() > 1000) {
-      EXPECT_GT(lowered, 0) << size;  // the maps do exercise it
+      EXPECT_LT(worst, 1e-5f) << size << ", patch " << patch;
+      if (size.area() > 1000) {
+        EXPECT_GT(lowered, 0) << size << ", patch " << patch;  // the maps do exercise it
+      }
     }
   }
 }
