@@ -90,6 +90,8 @@ const std::vector<ParamField>& paramFields() {
             "gamma: minimum share of valid (non-black) pixels in a patch"),
       field("saturation_grey", &MatcherParams::saturation_grey, 1, 256,
             "pixels this bright in either view (specular highlights) are left out like black ones; 256 = none"),
+      field("dark_floor_grey", &MatcherParams::dark_floor_grey, 0, 255,
+            "pixels darker than this in either view (near-black surfaces) are left out like black ones; 0 = none"),
       field("window_half_width", &MatcherParams::window_half_width, 1, 10,
             "n: the posterior window has 2n+1 disparity samples"),
       field("window_step", &MatcherParams::window_step, 0.05, 4.0,

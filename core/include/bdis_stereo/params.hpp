@@ -70,6 +70,11 @@ struct MatcherParams {
   /// highlight, which sits elsewhere on the tissue in each view) are left
   /// out like black ones; 256 = none.
   int saturation_grey = 255;
+  /// Pixels darker than this in either view (grey level) are left out like
+  /// black ones: on near-black surfaces without texture of their own (a dark
+  /// instrument shaft, a dark corner) a patch only matches the texture of
+  /// its lighter neighbours, at their depth. 0 = none.
+  int dark_floor_grey = 10;
   int window_half_width = 2;       ///< n: posterior window has 2n+1 samples
   /// delta: spacing of the window samples, px at the level. 2, not the
   /// paper's 1: the local-minimum test and the posterior then see the

@@ -173,7 +173,8 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   const bool with_confidence = publish_confidence || with_variance;
 
   // 1. Pyramid: grey levels, gradients and validity of the pair.
-  m.pyramid.build(left, right, levels, finest, P.saturation_grey, /*probe_block_grid=*/with_confidence);
+  m.pyramid.build(left, right, levels, finest, P.saturation_grey, P.dark_floor_grey,
+                  /*probe_block_grid=*/with_confidence);
   // 2. Coarse to fine above the finest level; each level initialises the next.
   m.matchLevelsAboveFinest(left.size(), levels, finest);
   if (with_check) {

@@ -8,10 +8,10 @@ namespace bdis {
 namespace detail {
 
 // A pixel is outside the rectified view when every channel is 0; judged on
-// the input, not on the grey value, so a very dark but real pixel stays
-// valid. A pixel whose grey level reaches `saturated` is left out too: a
-// specular highlight sits at another place on the tissue in each view, and
-// its clipped plateau holds no texture.
+// the input, not on the grey value (a real pixel that is merely dark is the
+// dark floor's matter: invalidateBelowFloor). A pixel whose grey level
+// reaches `saturated` is left out too: a specular highlight sits at another
+// place on the tissue in each view, and its clipped plateau holds no texture.
 BDIS_ROW_LOOP
 void validityOfMonoRow(const uchar* __restrict src, int w, int saturated, uchar* __restrict valid) {
   for (int x = 0; x < w; ++x) valid[x] = (src[x] != 0) & (src[x] < saturated);
@@ -91,11 +91,19 @@ void invalidateSeams(const uchar* grey, int w, uchar* valid) {
   }
 }
 
+BDIS_ROW_LOOP
+void invalidateBelowFloor(const uchar* __restrict grey, int w, int floor, uchar* __restrict valid) {
+  if (floor <= 0) return;
+  const uchar below = static_cast<uchar>(std::min(floor, 256) - 1);  // grey <= below is dark
+  for (int x = 0; x < w; ++x) valid[x] = grey[x] > below ? valid[x] : 0;
+}
+
 namespace {
 
 /// Grey value and validity of row y of an 8-bit mono or BGR input: returns
 /// the input row itself when it is mono, else `luma_row` filled.
-const uchar* greyAndValidityRow(const cv::Mat& src, int y, int saturated, uchar* luma_row, uchar* valid_row) {
+const uchar* greyAndValidityRow(const cv::Mat& src, int y, int saturated, int dark_floor, uchar* luma_row,
+                                uchar* valid_row) {
   const uchar* row = src.ptr<uchar>(y);
   const uchar* grey = row;
   if (src.channels() == 1) {
@@ -104,7 +112,9 @@ const uchar* greyAndValidityRow(const cv::Mat& src, int y, int saturated, uchar*
     lumaOfBgrRow(row, src.cols, saturated, luma_row, valid_row);
     grey = luma_row;
   }
+  // After the seams: a row that starts in dark tissue is no frame.
   invalidateSeams(grey, src.cols, valid_row);
+  invalidateBelowFloor(grey, src.cols, dark_floor, valid_row);
   return grey;
 }
 
@@ -247,8 +257,10 @@ int levelsThatFit(int width, int height, int patch_size, int wanted_levels) {
 }
 
 void StereoPyramid::build(const cv::Mat& left, const cv::Mat& right, int num_levels,
-                          int first_searched_level, int saturation_grey, bool probe_block_grid) {
+                          int first_searched_level, int saturation_grey, int dark_floor_grey,
+                          bool probe_block_grid) {
   saturated_ = saturation_grey;
+  dark_floor_ = dark_floor_grey;
   probe_block_grid_ = probe_block_grid;
   size_ = left.size();
   levels_.resize(static_cast<size_t>(num_levels));  // no-op once sized
@@ -263,10 +275,10 @@ void StereoPyramid::build(const cv::Mat& left, const cv::Mat& right, int num_lev
   left_columns_ = right_columns_ = PhaseSteps();
   if (first_searched_level == 0) {
     for (int y = 0; y < left.rows; ++y) {
-      const uchar* grey = greyAndValidityRow(left, y, saturated_, input_rows_[0], base.left_valid[y]);
+      const uchar* grey = greyAndValidityRow(left, y, saturated_, dark_floor_, input_rows_[0], base.left_valid[y]);
       probeBlockGrid(true, y, grey, base.left_valid[y]);
       toFloatRow(grey, left.cols, base.left[y]);
-      grey = greyAndValidityRow(right, y, saturated_, input_rows_[0], base.right_valid[y]);
+      grey = greyAndValidityRow(right, y, saturated_, dark_floor_, input_rows_[0], base.right_valid[y]);
       probeBlockGrid(false, y, grey, base.right_valid[y]);
       toFloatRow(grey, left.cols, base.right[y]);
     }
@@ -296,7 +308,7 @@ void StereoPyramid::downsampleInputs(const cv::Mat& left, const cv::Mat& right) 
       for (int i = 0; i < 2; ++i) {
         // Level 0 keeps the left validity only: the output mask.
         uchar* valid_row = is_left ? base.left_valid[2 * y + i] : input_rows_[2 + i];
-        grey[i] = greyAndValidityRow(src, 2 * y + i, saturated_, input_rows_[i], valid_row);
+        grey[i] = greyAndValidityRow(src, 2 * y + i, saturated_, dark_floor_, input_rows_[i], valid_row);
         valid[i] = valid_row;
         probeBlockGrid(is_left, 2 * y + i, grey[i], valid_row);
       }
@@ -304,7 +316,7 @@ void StereoPyramid::downsampleInputs(const cv::Mat& left, const cv::Mat& right) 
     }
     // An odd last row has no coarse row but belongs to the output mask.
     if (is_left && src.rows % 2) {
-      greyAndValidityRow(src, src.rows - 1, saturated_, input_rows_[0], base.left_valid[src.rows - 1]);
+      greyAndValidityRow(src, src.rows - 1, saturated_, dark_floor_, input_rows_[0], base.left_valid[src.rows - 1]);
     }
   }
 }

@@ -35,6 +35,11 @@ void lumaOfBgrRowAvx2(const uchar* bgr, int w, int saturated, uchar* grey, uchar
 /// pixel after those are made invalid too. Black holes inside the view (dead
 /// pixels, a masked tool) are not frames and keep their neighbours.
 void invalidateSeams(const uchar* grey, int w, uchar* valid);
+/// Pixels darker than `floor` made invalid (0: none). A near-black surface
+/// without texture of its own (a dark instrument shaft, a dark corner) holds
+/// little above the sensor's noise: a patch on it matches the texture of its
+/// lighter neighbours, at their depth.
+void invalidateBelowFloor(const uchar* grey, int w, int floor, uchar* valid);
 
 /// Levels a pyramid may have: coarsest_level is at most 10 (see params).
 constexpr int kMaxPyramidLevels = 11;
@@ -70,11 +75,12 @@ class StereoPyramid {
  public:
   /// Builds levels 0..num_levels-1 from 8-bit mono or BGR inputs of equal size;
   /// gradients only from `first_searched_level` on. Pixels black in every
-  /// channel, the dark seam rectification leaves next to a black frame and
-  /// pixels of grey level `saturation_grey` or brighter are invalid.
+  /// channel, the dark seam rectification leaves next to a black frame,
+  /// pixels of grey level `saturation_grey` or brighter and pixels darker
+  /// than `dark_floor_grey` are invalid.
   /// With `probe_block_grid`, columnSteps() are gathered too.
   void build(const cv::Mat& left, const cv::Mat& right, int num_levels, int first_searched_level,
-             int saturation_grey = 256, bool probe_block_grid = false);
+             int saturation_grey = 256, int dark_floor_grey = 0, bool probe_block_grid = false);
   const PyramidLevel& level(int s) const { return levels_[static_cast<size_t>(s)]; }
   int numLevels() const { return static_cast<int>(levels_.size()); }
   cv::Size size() const { return size_; }  ///< of the input (level 0)
@@ -96,6 +102,7 @@ class StereoPyramid {
   std::vector<PyramidLevel> levels_;
   cv::Size size_;
   int saturated_ = 256;  ///< grey level from which a pixel is invalid
+  int dark_floor_ = 0;   ///< grey level below which a pixel is invalid
   /// Row scratch of the 8-bit conversion: rows 0 and 1 the grey of a colour
   /// input's rows; rows 2 and 3 the right validity of the two rows
   /// downsampleInputs averages (level 0 stores none when not searched).

@@ -107,7 +107,7 @@ TEST(BlockGrid, ThePyramidGathersTheStepsOnlyWhenAsked) {
     bdis::detail::StereoPyramid pyramid;
     pyramid.build(coded, coded, 3, first_searched_level);
     EXPECT_EQ(alignedGridDisparity(pyramid.columnSteps(true), pyramid.columnSteps(false)), -1);
-    pyramid.build(coded, coded, 3, first_searched_level, 256, /*probe_block_grid=*/true);
+    pyramid.build(coded, coded, 3, first_searched_level, 256, 0, /*probe_block_grid=*/true);
     EXPECT_EQ(alignedGridDisparity(pyramid.columnSteps(true), pyramid.columnSteps(false)), 0);
     EXPECT_GT(pyramid.columnSteps(true).count[0], 256);  // every 16th row of 240
   }

@@ -280,7 +280,8 @@ TEST(MatcherInputs, BgrWithEqualChannelsEqualsMono) {
 TEST(MatcherInputs, BgrPixelIsBlackOnlyWhenAllChannelsAreZero) {
   // Isolated left pixels on a 7 px grid are set to (1, 0, 0), whose grey
   // level rounds to 0 but which is not black, or to (0, 0, 0), which is.
-  // Only the latter are outside the view and get no estimate.
+  // Without the dark floor only the latter are outside the view and get no
+  // estimate; with the default floor the dark ones are left out too.
   const StereoPair pair = texturedPair(kW, kH, {7.3, 0.0});
   cv::Mat bgr_l, bgr_r;
   cv::merge(std::vector<cv::Mat>{pair.left, pair.left, pair.left}, bgr_l);
@@ -294,15 +295,23 @@ TEST(MatcherInputs, BgrPixelIsBlackOnlyWhenAllChannelsAreZero) {
     for (int y = margin; y < kH - margin; y += 7) {
       for (int x = margin; x < kW - margin; x += 7) left.at<cv::Vec3b>(y, x) = marker, ++markers;
     }
-    const MatchResult r = run(MatcherParams{}, left, bgr_r);
+    MatcherParams no_floor;
+    no_floor.dark_floor_grey = 0;
+    const MatchResult r = run(no_floor, left, bgr_r);
+    const MatchResult with_floor = run(MatcherParams{}, left, bgr_r);
+    int estimated_with_floor = 0;
     for (int y = margin; y < kH - margin; y += 7) {
-      for (int x = margin; x < kW - margin; x += 7) estimated += r.disparity.at<float>(y, x) >= 0.f;
+      for (int x = margin; x < kW - margin; x += 7) {
+        estimated += r.disparity.at<float>(y, x) >= 0.f;
+        estimated_with_floor += with_floor.disparity.at<float>(y, x) >= 0.f;
+      }
     }
     if (black) {
       EXPECT_EQ(estimated, 0);
     } else {
       EXPECT_GE(estimated, 0.95 * markers);
     }
+    EXPECT_EQ(estimated_with_floor, 0);
   }
 }
 

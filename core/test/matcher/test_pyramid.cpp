@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "pyramid.hpp"
 
@@ -163,6 +164,37 @@ TEST(StereoPyramid, SeamsAfterTheBlackFrameAreOutsideTheView) {
   }
   EXPECT_GT(rows_with_frames, 2000);
   EXPECT_GT(seam_pixels, 4000);  // 4935 with this seed
+}
+
+TEST(StereoPyramid, PixelsBelowTheDarkFloorAreOutsideTheView) {
+  // Grey below dark_floor_grey in either view is invalid, like black; the
+  // floor's own grey level and 0 (no floor) leave the pixel valid.
+  cv::Mat left(64, 64, CV_8UC1, cv::Scalar(120)), right(64, 64, CV_8UC1, cv::Scalar(120));
+  left(cv::Rect(10, 10, 4, 4)).setTo(9);
+  left(cv::Rect(30, 10, 4, 4)).setTo(10);
+  right(cv::Rect(40, 20, 2, 2)).setTo(3);
+  for (const int floor : {0, 10}) {
+    StereoPyramid p;
+    p.build(left, right, 2, 0, 256, floor);
+    const PyramidLevel& l0 = p.level(0);
+    const bool dark_invalid = floor == 10;
+    EXPECT_EQ(l0.leftValidRow(11)[11] == 0, dark_invalid) << floor;
+    EXPECT_EQ(l0.rightValidRow(21)[41] == 0, dark_invalid) << floor;
+    EXPECT_EQ(l0.leftValidRow(11)[31], 1) << floor;
+    EXPECT_EQ(l0.leftValidRow(30)[30], 1) << floor;
+    EXPECT_EQ(p.level(1).leftValidRow(5)[5] == 0, dark_invalid) << floor;
+  }
+  // The BGR path, whose luma has its own kernel, the same.
+  cv::Mat left_bgr, right_bgr;
+  cv::cvtColor(left, left_bgr, cv::COLOR_GRAY2BGR);
+  cv::cvtColor(right, right_bgr, cv::COLOR_GRAY2BGR);
+  StereoPyramid p;
+  p.build(left_bgr, right_bgr, 2, 1, 256, 10);
+  EXPECT_EQ(p.level(0).leftValidRow(11)[11], 0);
+  EXPECT_EQ(p.level(0).leftValidRow(11)[31], 1);
+  EXPECT_EQ(p.level(1).leftValidRow(5)[5], 0);
+  EXPECT_EQ(p.level(1).rightValidRow(10)[20], 0);
+  EXPECT_EQ(p.level(1).leftValidRow(20)[20], 1);
 }
 
 TEST(StereoPyramid, ClippedPixelsAreOutsideTheView) {
