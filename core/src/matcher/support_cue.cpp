@@ -15,17 +15,35 @@ namespace {
 // such pixels and valid ones. Mid-grey tells the two kinds apart.
 constexpr float kBrightInvalidGrey = 128.f;
 
+/// The row's valid span [begin, end): from its first valid pixel to its
+/// last; empty (begin == end) when it has none.
+void validSpan(const uchar* valid, int w, int& begin, int& end) {
+  begin = 0;
+  while (begin < w && !valid[begin]) ++begin;
+  end = w;
+  while (end > begin && !valid[end - 1]) --end;
+}
+
 /// The two rows the box sums count: `weight` where a pixel has an estimate,
-/// and `weight` where it could have had one (valid, or invalid but bright:
-/// clipped).
+/// and `weight` where it could have had one: valid; invalid but bright
+/// (clipped); or invalid, not black and inside the row's valid span (below
+/// the dark floor: a frame and its seam reach the row's end).
 BDIS_ROW_LOOP
 void indicatorRows(int w, const float* __restrict disparity, const uchar* __restrict valid,
-                   const float* __restrict grey, float weight, float* __restrict estimates,
-                   float* __restrict valid_pixels) {
+                   const float* __restrict grey, int span_begin, int span_end, float weight,
+                   float* __restrict estimates, float* __restrict valid_pixels) {
   for (int x = 0; x < w; ++x) {
     estimates[x] = disparity[x] >= 0.f ? weight : 0.f;
-    valid_pixels[x] = (valid[x] != 0) | (grey[x] >= kBrightInvalidGrey) ? weight : 0.f;  // | : no branch
+    const bool dark_hole = (x >= span_begin) & (x < span_end) & (grey[x] > 0.f);
+    valid_pixels[x] = (valid[x] != 0) | (grey[x] >= kBrightInvalidGrey) | dark_hole ? weight : 0.f;  // | : no branch
   }
+}
+
+void indicatorRows(int w, const float* disparity, const uchar* valid, const float* grey, float weight,
+                   float* estimates, float* valid_pixels) {
+  int begin = 0, end = 0;
+  validSpan(valid, w, begin, end);
+  indicatorRows(w, disparity, valid, grey, begin, end, weight, estimates, valid_pixels);
 }
 
 /// Per block, the factor agreement(missing share) of its box's counts.

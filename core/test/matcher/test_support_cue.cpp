@@ -91,6 +91,34 @@ TEST(SupportCue, SaturatedPixelsCountAsHoles) {
   EXPECT_EQ(m.confidence(22, 10), 1.f);  // out of reach
 }
 
+TEST(SupportCue, NearBlackPixelsInsideTheViewCountAsHoles) {
+  // Below the dark floor (invalid, dark but not black) inside the row's
+  // valid span: a near-black surface the matcher could not measure, such as
+  // an instrument's shaft, whose neighbours' estimates are often its depth.
+  Maps m(64, 48);
+  m.invalidate(cv::Rect(28, 18, 8, 8), 6.f);
+  SupportCue cue;
+  m.apply(cue);
+  EXPECT_NEAR(m.confidence(22, 27), expectedFactor(48.f / 196.f), 1e-5f);  // as a clipped highlight
+  EXPECT_EQ(m.confidence(22, 10), 1.f);
+}
+
+TEST(SupportCue, DarkSeamAfterAFrameAndBlackHolesDoNotCount) {
+  // A frame's dark seam reaches the row's end through the black: outside
+  // the view, like the frame. A black hole inside the view (a dead pixel, a
+  // masked instrument) is no failure of the measurement either.
+  Maps m(64, 48);
+  m.invalidate(cv::Rect(0, 0, 10, 48), 0.f);
+  m.invalidate(cv::Rect(10, 0, 4, 48), 8.f);
+  m.invalidate(cv::Rect(50, 0, 14, 48), 5.f);  // dark up to the row's end: no span reaches past it
+  m.invalidate(cv::Rect(30, 20, 6, 6), 0.f);
+  SupportCue cue;
+  m.apply(cue);
+  const cv::Mat1f inside = m.confidence(cv::Rect(14, 0, 36, 48));
+  const cv::Mat1b hole = m.valid(cv::Rect(14, 0, 36, 48)) == 0;
+  EXPECT_EQ(cv::countNonZero((inside != 1.f) & ~hole), 0);
+}
+
 TEST(SupportCue, TinyMapsAndReusedBuffers) {
   SupportCue cue;
   for (const auto& [w, h] : {std::pair<int, int>{1, 1}, {3, 40}, {40, 3}, {64, 48}, {5, 5}}) {
