@@ -80,6 +80,8 @@ const std::vector<ParamField>& paramFields() {
             "divide out the views' contrast gain, estimated from the coarser levels"),
       field("coarser_look", &MatcherParams::coarser_look, 0, 1,
             "finest level: a patch without evidence searches again one level coarser, on twice its footprint"),
+      field("two_scales", &MatcherParams::two_scales, 0, 1,
+            "also match one level coarser; keep, per pixel, the more confident estimate (dark, flat, block-coded tissue)"),
       field("support_grey", &MatcherParams::support_grey, 0.0, 255.0,
             "finest level: a pixel g grey levels from its patch centre weighs 1 / (1 + (g / h)^2), h this "
             "(scaled below a centre of 64), so patches beside an edge match their centre; 0 = off"),
@@ -238,6 +240,9 @@ MatcherParams MatcherParams::preset(const std::string& name) {
     p.confidence_floor = 0.02f;
     // More estimates on dark and flat tissue for a few per cent of its time.
     p.coarser_look = true;
+    // Dark, flat and block-coded tissue from the coarser scale where it is
+    // the more confident.
+    p.two_scales = true;
     // The support weights in every patch, not only those with an edge.
     p.support_edge_grey = 0.f;
     return p;

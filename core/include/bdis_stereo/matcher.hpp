@@ -41,8 +41,8 @@ struct MatchResult {
 /// confidence's cues are not computed either (they change no disparity): a
 /// node computes only what is subscribed.
 struct MatchOutputs {
-  /// Filled when false too while MatcherParams::min_confidence > 0: it then
-  /// decides which estimates are published.
+  /// Filled when false too while MatcherParams::min_confidence > 0 or
+  /// two_scales is on: it then decides which estimates are published.
   bool confidence = true;
   bool variance = true;  ///< only with MatcherParams::compute_variance
 };

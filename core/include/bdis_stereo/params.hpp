@@ -50,6 +50,12 @@ struct MatcherParams {
   /// footprint: more estimates on dark and flat tissue at the same bad2, for
   /// 5-7 % of balanced's time (docs/method.md); on in accurate.
   bool coarser_look = false;
+  /// Also matches with the finest level one coarser (twice the footprint per
+  /// patch) and publishes, per pixel estimated by both, the estimate with the
+  /// higher calibrated confidence: dark, flat and block-coded tissue gain,
+  /// for about a third more time (docs/method.md, "Two scales"). Needs
+  /// calibrated_confidence (without it, ignored); on in accurate.
+  bool two_scales = false;
   /// At the finest level, each patch pixel weighs 1 / (1 + ((g - c) /
   /// support_grey)^2) in the search's costs and Gauss-Newton steps, g its
   /// grey level and c the patch centre's: a patch straddling an instrument's

@@ -1,12 +1,15 @@
 // BDIS as a pipeline of stages (docs/method.md): the pyramid, then per level
 // patch search -> posterior -> fusion from coarse to fine, then the
 // left-right check, the texture centroid correction, the refinement, the
-// confidence's cues and the upsampling to the input resolution.
+// confidence's cues and the upsampling to the input resolution; with
+// two_scales, the choice between it and the same search one level coarser.
 #include "bdis_stereo/matcher.hpp"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -25,6 +28,7 @@
 #include "patch_grid.hpp"
 #include "pyramid.hpp"
 #include "residual_fit_cue.hpp"
+#include "scale_choice.hpp"
 #include "search_pass.hpp"
 #include "slant_cue.hpp"
 #include "specular_lobe_cue.hpp"
@@ -68,16 +72,29 @@ void validateInputs(const cv::Mat& left, const cv::Mat& right) {
 
 /// Estimates whose confidence is below `min_confidence` get none (and
 /// confidence 0, as every pixel without an estimate).
-void dropLessConfident(float min_confidence, cv::Mat& disparity, cv::Mat& confidence) {
-  for (int y = 0; y < disparity.rows; ++y) {
-    float* d = disparity.ptr<float>(y);
-    float* c = confidence.ptr<float>(y);
-    for (int x = 0; x < disparity.cols; ++x) {
+void dropLessConfident(float min_confidence, MatchResult& result) {
+  const bool with_variance = !result.variance.empty();
+  for (int y = 0; y < result.disparity.rows; ++y) {
+    float* d = result.disparity.ptr<float>(y);
+    float* c = result.confidence.ptr<float>(y);
+    float* v = with_variance ? result.variance.ptr<float>(y) : nullptr;
+    for (int x = 0; x < result.disparity.cols; ++x) {
       const bool drop = c[x] < min_confidence;
       d[x] = drop ? kNoDisparity : d[x];
       c[x] = drop ? 0.f : c[x];
+      if (v && drop) v[x] = std::numeric_limits<float>::quiet_NaN();
     }
   }
+}
+
+/// The parameters of the two_scales search one level coarser: the same
+/// search with its finest level at `finest` (resolved), alone, dropping nothing.
+MatcherParams coarserScaleParams(const MatcherParams& P, int finest) {
+  MatcherParams c = P;
+  c.finest_level = finest;
+  c.two_scales = false;
+  c.min_confidence = 0.f;
+  return c;
 }
 
 /// The left-right check's settings: the same search with the right image as
@@ -117,6 +134,12 @@ struct Matcher::Impl {
   detail::VariationalRefinement refinement;
   detail::TextureCentroidCorrection centroid_correction;
   detail::Upsampler upsampler;
+  /// two_scales: the same search with its finest level one coarser, made on
+  /// the first frame that needs it, and its result (buffers reused).
+  std::unique_ptr<Matcher> coarser_scale;
+  int coarser_scale_finest = -1;
+  MatchResult coarser_result;
+  detail::ScaleChoice scale_choice;
 
   /// Configures the searches for frames `width` px wide; a no-op while the
   /// resolved patch size stays the same.
@@ -153,6 +176,7 @@ void Matcher::setParams(const MatcherParams& params) {
   impl_->resolved = params;
   impl_->configureSearches();
   impl_->refinement.configure(params.refinement_iterations, params.refinement_smoothness);
+  impl_->coarser_scale.reset();
 }
 
 const MatcherParams& Matcher::params() const { return impl_->params; }
@@ -169,7 +193,10 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   // The confidence is published when asked for or when it decides which
   // estimates are published; it is computed for the variance's outlier term too.
   const bool with_variance = P.compute_variance && outputs.variance;
-  const bool publish_confidence = outputs.confidence || P.min_confidence > 0.f;
+  // two_scales keeps, per pixel, the estimate more confident of the two
+  // scales: that takes both calibrated confidences and a coarser level.
+  const bool two_scales = P.two_scales && P.calibrated_confidence && finest + 1 < levels;
+  const bool publish_confidence = outputs.confidence || P.min_confidence > 0.f || two_scales;
   const bool with_confidence = publish_confidence || with_variance;
 
   // 1. Pyramid: grey levels, gradients and validity of the pair.
@@ -215,16 +242,28 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   }
   // 8. The published confidence as the probability of being within 2 px.
   if (publish_confidence && P.calibrated_confidence) detail::calibrateConfidence(out.confidence, finest);
-  // 9. Upsampling to the input resolution; then the estimates less
-  //    confident than min_confidence are dropped, at the resolution the
-  //    confidence is published at (and the variance with them).
+  // 9. Upsampling to the input resolution.
   m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, publish_confidence, result);
-  if (P.min_confidence > 0.f) dropLessConfident(P.min_confidence, result.disparity, result.confidence);
   if (with_variance) {
     m.upsampler.upsampleVariance(out, finest, result);
   } else {
     result.variance.release();
   }
+  // 10. With two_scales, the same search one level coarser, and per pixel
+  //     the estimate more likely right.
+  if (two_scales) {
+    if (!m.coarser_scale || m.coarser_scale_finest != finest + 1) {
+      m.coarser_scale = std::make_unique<Matcher>(coarserScaleParams(m.params, finest + 1));
+      m.coarser_scale_finest = finest + 1;
+    }
+    m.coarser_scale->compute(left, right, m.coarser_result, MatchOutputs{true, with_variance});
+    // One coarser patch side, in input px.
+    const int coarser_patch_px = m.coarser_scale->params().patchSizeFor(left.cols) << (finest + 1);
+    m.scale_choice.keepMoreConfident(m.coarser_result, detail::kScaleChoiceJumpPx, coarser_patch_px, result);
+  }
+  // 11. The estimates less confident than min_confidence dropped, at the
+  //     resolution the confidence is published at (and their variance).
+  if (P.min_confidence > 0.f) dropLessConfident(P.min_confidence, result);
 }
 
 void Matcher::Impl::applyConfidenceCues(int finest, detail::LevelMaps& out) {

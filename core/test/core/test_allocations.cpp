@@ -176,6 +176,13 @@ MatcherParams withMinConfidence() {
   p.min_confidence = 0.01f;
   return p;
 }
+MatcherParams twoScalesWithVarianceAndMinConfidence() {
+  MatcherParams p;
+  p.two_scales = true;
+  p.compute_variance = true;
+  p.min_confidence = 0.01f;
+  return p;
+}
 MatcherParams fullResolutionNoChecks() {
   MatcherParams p;
   p.finest_level = 0;
@@ -196,7 +203,10 @@ INSTANTIATE_TEST_SUITE_P(
                       // The node's case: the confidence decides without being published.
                       AllocationCase{"min_confidence, no confidence asked", withMinConfidence(), false,
                                      bdis::MatchOutputs{false, false}},
-                      AllocationCase{"disparity only", MatcherParams{}, false, bdis::MatchOutputs{false, false}}),
+                      AllocationCase{"disparity only", MatcherParams{}, false, bdis::MatchOutputs{false, false}},
+                      // Two scales: the confidence decides between them without being published.
+                      AllocationCase{"two_scales, variance, min_confidence", twoScalesWithVarianceAndMinConfidence(),
+                                     false, bdis::MatchOutputs{false, true}}),
     [](const auto& info) {
       std::string n = info.param.name;
       for (char& c : n) if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';

@@ -101,6 +101,8 @@ TEST(MatcherOutputs, ExtremeParametersKeepTheOutputContract) {
   all.push_back(with([](MatcherParams& p) { p.min_valid_share = 1.f, p.iterations = 1; }));
   all.push_back(with([](MatcherParams& p) { p.confidence_floor = 0.f, p.iterations = 200; }));
   all.push_back(with([](MatcherParams& p) { p.sigma_s = 100.f; }));
+  all.push_back(with([](MatcherParams& p) { p.two_scales = true, p.min_confidence = 0.5f; }));
+  all.push_back(with([](MatcherParams& p) { p.two_scales = true, p.coarsest_level = 1, p.finest_level = 1; }));
   for (size_t i = 0; i < all.size(); ++i) {
     SCOPED_TRACE("parameter set " + std::to_string(i) + ":\n" + bdis::toYaml(all[i]));
     for (bool variance : {false, true}) {
@@ -471,50 +473,55 @@ TEST(MatcherReuse, MapsLeftOutAreEmptyAndTheOthersUnchanged) {
 // drops the others (no estimate, confidence 0, variance NaN); it decides
 // whether the confidence is asked for or not, so it is filled either way.
 TEST(MatcherOutputs, MinConfidenceDropsExactlyTheLessConfidentEstimates) {
-  MatcherParams params;
-  params.compute_variance = true;
-  const StereoPair pair = texturedPair(kW, kH, {7.3, 0.0}, 3);
-  const MatchResult all = run(params, pair.left, pair.right);
-  // Thresholds at a quarter, half and three quarters of the estimates.
-  std::vector<float> confidences;
-  for (int y = 0; y < kH; ++y) {
-    for (int x = 0; x < kW; ++x) {
-      if (all.disparity.at<float>(y, x) != bdis::kNoDisparity) confidences.push_back(all.confidence.at<float>(y, x));
+  // With two_scales too: the threshold applies to the chosen estimates.
+  for (const bool two_scales : {false, true}) {
+    SCOPED_TRACE(two_scales ? "two_scales" : "one scale");
+    MatcherParams params;
+    params.compute_variance = true;
+    params.two_scales = two_scales;
+    const StereoPair pair = texturedPair(kW, kH, {7.3, 0.0}, 3);
+    const MatchResult all = run(params, pair.left, pair.right);
+    // Thresholds at a quarter, half and three quarters of the estimates.
+    std::vector<float> confidences;
+    for (int y = 0; y < kH; ++y) {
+      for (int x = 0; x < kW; ++x) {
+        if (all.disparity.at<float>(y, x) != bdis::kNoDisparity) confidences.push_back(all.confidence.at<float>(y, x));
+      }
     }
-  }
-  std::sort(confidences.begin(), confidences.end());
-  ASSERT_GT(confidences.size(), 1000u);
-  for (const size_t quarter : {1, 2, 3}) {
-    const float threshold = confidences[quarter * confidences.size() / 4];
-    params.min_confidence = threshold;
-    Matcher m(params);
-    for (const bool confidence : {true, false}) {
-      SCOPED_TRACE("min_confidence " + std::to_string(threshold) + (confidence ? "" : ", confidence not asked for"));
-      MatchResult r;
-      m.compute(pair.left, pair.right, r, bdis::MatchOutputs{confidence, true});
-      ASSERT_FALSE(r.confidence.empty());
-      int kept = 0, dropped = 0, wrong = 0;
-      for (int y = 0; y < kH; ++y) {
-        for (int x = 0; x < kW; ++x) {
-          const float d = r.disparity.at<float>(y, x), c = r.confidence.at<float>(y, x);
-          const float v = r.variance.at<float>(y, x);
-          if (all.disparity.at<float>(y, x) == bdis::kNoDisparity) {
-            wrong += d != bdis::kNoDisparity;
-          } else if (all.confidence.at<float>(y, x) >= threshold) {
-            ++kept;
-            wrong += d != all.disparity.at<float>(y, x) || c != all.confidence.at<float>(y, x) ||
-                     v != all.variance.at<float>(y, x);
-          } else {
-            ++dropped;
-            wrong += d != bdis::kNoDisparity || c != 0.f || !std::isnan(v);
+    std::sort(confidences.begin(), confidences.end());
+    ASSERT_GT(confidences.size(), 1000u);
+    for (const size_t quarter : {1, 2, 3}) {
+      const float threshold = confidences[quarter * confidences.size() / 4];
+      params.min_confidence = threshold;
+      Matcher m(params);
+      for (const bool confidence : {true, false}) {
+        SCOPED_TRACE("min_confidence " + std::to_string(threshold) + (confidence ? "" : ", confidence not asked for"));
+        MatchResult r;
+        m.compute(pair.left, pair.right, r, bdis::MatchOutputs{confidence, true});
+        ASSERT_FALSE(r.confidence.empty());
+        int kept = 0, dropped = 0, wrong = 0;
+        for (int y = 0; y < kH; ++y) {
+          for (int x = 0; x < kW; ++x) {
+            const float d = r.disparity.at<float>(y, x), c = r.confidence.at<float>(y, x);
+            const float v = r.variance.at<float>(y, x);
+            if (all.disparity.at<float>(y, x) == bdis::kNoDisparity) {
+              wrong += d != bdis::kNoDisparity;
+            } else if (all.confidence.at<float>(y, x) >= threshold) {
+              ++kept;
+              wrong += d != all.disparity.at<float>(y, x) || c != all.confidence.at<float>(y, x) ||
+                       v != all.variance.at<float>(y, x);
+            } else {
+              ++dropped;
+              wrong += d != bdis::kNoDisparity || c != 0.f || !std::isnan(v);
+            }
           }
         }
+        EXPECT_EQ(wrong, 0);
+        // Both sides are exercised (not a quarter each: estimates of equal
+        // confidence, the calibrated confidence's steps near 1, go together).
+        EXPECT_GT(kept, 0);
+        EXPECT_GT(dropped, 0);
       }
-      EXPECT_EQ(wrong, 0);
-      // Both sides are exercised (not a quarter each: estimates of equal
-      // confidence, the calibrated confidence's steps near 1, go together).
-      EXPECT_GT(kept, 0);
-      EXPECT_GT(dropped, 0);
     }
   }
 }

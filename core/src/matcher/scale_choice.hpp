@@ -1,0 +1,41 @@
+// The choice between two scales (docs/method.md, "Two scales"): the search
+// whose finest level is one coarser sees twice the footprint per patch, which
+// dark, flat and block-coded tissue needs and depth edges do not. Both
+// results carry a confidence calibrated as the probability of being within
+// 2 px, per finest level, so per pixel the one more likely right is kept,
+// except near a depth edge, where the coarser patches straddle both surfaces
+// and carry the nearer one's depth onto the farther with confidence.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include "bdis_stereo/matcher.hpp"
+
+namespace bdis {
+namespace detail {
+
+/// A jump larger than this (input px) between 4-neighbouring estimates is a
+/// depth edge for the choice: the outlier threshold.
+constexpr float kScaleChoiceJumpPx = 2.f;
+
+class ScaleChoice {
+ public:
+  /// Where both `result` and `coarser` (the same input size) have an
+  /// estimate, `coarser`'s confidence is higher and no jump of more than
+  /// `jump_px` between `result`'s 4-neighbouring estimates lies within
+  /// `reach_px` (a box of side 2 reach_px + 1: one coarser patch side, so no
+  /// coarser patch covering the pixel straddles the edge), `result` takes
+  /// `coarser`'s disparity, confidence and (when `result` has one) variance.
+  /// Pixels without an estimate in `result` stay without one: the finer
+  /// search's check and floors dropped them, and the coarser's lone
+  /// estimates there rank worse than its others. Returns the pixels taken.
+  /// Buffers are kept for the next frame of the same size.
+  int keepMoreConfident(const MatchResult& coarser, float jump_px, int reach_px, MatchResult& result);
+
+ private:
+  cv::Mat1b jumps_;  ///< 1 at both pixels of a jump of result's disparity
+  cv::Mat1i sums_;   ///< integral of jumps_
+};
+
+}  // namespace detail
+}  // namespace bdis
