@@ -51,10 +51,12 @@ struct MatcherParams {
   /// 5-7 % of balanced's time (docs/method.md); on in accurate.
   bool coarser_look = false;
   /// Also matches with the finest level one coarser (twice the footprint per
-  /// patch) and publishes, per pixel estimated by both, the estimate with the
-  /// higher calibrated confidence: dark, flat and block-coded tissue gain,
-  /// for about a third more time (docs/method.md, "Two scales"). Needs
-  /// calibrated_confidence (without it, ignored); on in accurate.
+  /// patch) and publishes, per pixel estimated by both and away from depth
+  /// edges, the estimate with the higher calibrated confidence: dark, flat
+  /// and block-coded tissue gain, for half again balanced's time
+  /// (docs/method.md, "Two scales"). Needs calibrated_confidence (without
+  /// it, or when the finest level is the coarsest that fits, ignored); on in
+  /// accurate.
   bool two_scales = false;
   /// At the finest level, each patch pixel weighs 1 / (1 + ((g - c) /
   /// support_grey)^2) in the search's costs and Gauss-Newton steps, g its
