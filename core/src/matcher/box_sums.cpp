@@ -1,6 +1,7 @@
 #include "box_sums.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "bdis_stereo/matcher.hpp"  // kNoDisparity
 #include "patch_kernels.hpp"        // BDIS_ROW_LOOP
@@ -97,6 +98,12 @@ void subtractRow(int w, const float* __restrict row, float* __restrict sum) {
 BDIS_ROW_LOOP
 void boxMeanRow(int w, const float* __restrict sum, const float* __restrict count, float* __restrict mean) {
   for (int x = 0; x < w; ++x) mean[x] = count[x] > 0.5f ? sum[x] / std::max(count[x], 1.f) : kNoDisparity;
+}
+
+BDIS_ROW_LOOP
+void jumpFlags(int n, const float* __restrict a, const float* __restrict b, float jump,
+               unsigned char* __restrict flags) {
+  for (int x = 0; x < n; ++x) flags[x] = (a[x] >= 0.f) & (b[x] >= 0.f) & (std::fabs(a[x] - b[x]) > jump);
 }
 
 void boxSumsAlongLine(int n, int half, const float* values, std::vector<float>& padded, float* out) {

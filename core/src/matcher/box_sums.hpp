@@ -37,6 +37,12 @@ inline float slopeAcross(float before, float centre, float after, float inv_step
 /// is scratch (n + 2 half values), kept for the next call.
 void boxSumsAlongLine(int n, int half, const float* values, std::vector<float>& padded, float* out);
 
+/// flags[x] = 1 where a[x] and b[x] are both estimates (>= 0) that differ
+/// by more than `jump`, else 0, for x < n: the jumps between two rows, or
+/// between a row and itself shifted by one (edge_distance_cue.hpp,
+/// scale_choice.hpp).
+void jumpFlags(int n, const float* a, const float* b, float jump, unsigned char* flags);
+
 /// The two raster passes of a city-block distance transform (steps of 1),
 /// one row at a time: each value becomes the least of itself, the
 /// neighbouring row's (`other`, null for none) plus 1, and, along the row,

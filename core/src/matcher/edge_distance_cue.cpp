@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "box_sums.hpp"       // blocksToPixels, distanceForwardRow
+#include "box_sums.hpp"       // blocksToPixels, distanceForwardRow, jumpFlags
 #include "patch_kernels.hpp"  // BDIS_ROW_LOOP
 
 namespace bdis {
@@ -13,13 +13,6 @@ namespace {
 
 /// A distance no frame reaches: a frame without a jump keeps its confidence.
 constexpr float kFarBlocks = 1e6f;
-
-/// 1 where a[x] and b[x] are both estimates that differ by more than `jump`.
-BDIS_ROW_LOOP
-void jumpFlags(int n, const float* __restrict a, const float* __restrict b, float jump,
-               unsigned char* __restrict flags) {
-  for (int x = 0; x < n; ++x) flags[x] = (a[x] >= 0.f) & (b[x] >= 0.f) & (std::fabs(a[x] - b[x]) > jump);
-}
 
 /// 1 for the pixels of a block row's two rows at a jump: `left_*` hold each
 /// row's horizontal pairs shifted by one (entry x: the pair x - 1, x; 0 at

@@ -137,7 +137,6 @@ struct Matcher::Impl {
   /// two_scales: the same search with its finest level one coarser, made on
   /// the first frame that needs it, and its result (buffers reused).
   std::unique_ptr<Matcher> coarser_scale;
-  int coarser_scale_finest = -1;
   MatchResult coarser_result;
   detail::ScaleChoice scale_choice;
 
@@ -252,9 +251,8 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   // 10. With two_scales, the same search one level coarser, and per pixel
   //     the estimate more likely right.
   if (two_scales) {
-    if (!m.coarser_scale || m.coarser_scale_finest != finest + 1) {
+    if (!m.coarser_scale || m.coarser_scale->params().finest_level != finest + 1) {
       m.coarser_scale = std::make_unique<Matcher>(coarserScaleParams(m.params, finest + 1));
-      m.coarser_scale_finest = finest + 1;
     }
     m.coarser_scale->compute(left, right, m.coarser_result, MatchOutputs{true, with_variance});
     // One coarser patch side, in input px.

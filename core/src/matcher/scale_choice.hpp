@@ -7,9 +7,10 @@
 // and carry the nearer one's depth onto the farther with confidence.
 #pragma once
 
-#include <opencv2/core.hpp>
+#include <vector>
 
 #include "bdis_stereo/matcher.hpp"
+#include "box_sums.hpp"
 
 namespace bdis {
 namespace detail {
@@ -23,7 +24,7 @@ class ScaleChoice {
   /// Where both `result` and `coarser` (the same input size) have an
   /// estimate, `coarser`'s confidence is higher and no jump of more than
   /// `jump_px` between `result`'s 4-neighbouring estimates lies within
-  /// `reach_px` (a box of side 2 reach_px + 1: one coarser patch side, so no
+  /// `reach_px` >= 1 (a box of side 2 reach_px + 1: one coarser patch side, so no
   /// coarser patch covering the pixel straddles the edge), `result` takes
   /// `coarser`'s disparity, confidence and (when `result` has one) variance.
   /// Pixels without an estimate in `result` stay without one: the finer
@@ -33,8 +34,8 @@ class ScaleChoice {
   int keepMoreConfident(const MatchResult& coarser, float jump_px, int reach_px, MatchResult& result);
 
  private:
-  cv::Mat1b jumps_;  ///< 1 at both pixels of a jump of result's disparity
-  cv::Mat1i sums_;   ///< integral of jumps_
+  BoxSums near_jumps_;                ///< per pixel, the jumps' pixels in its box
+  std::vector<unsigned char> pairs_;  ///< one row's jump flags
 };
 
 }  // namespace detail
