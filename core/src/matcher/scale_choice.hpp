@@ -10,7 +10,6 @@
 #include <vector>
 
 #include "bdis_stereo/matcher.hpp"
-#include "box_sums.hpp"
 
 namespace bdis {
 namespace detail {
@@ -34,8 +33,14 @@ class ScaleChoice {
   int keepMoreConfident(const MatchResult& coarser, float jump_px, int reach_px, MatchResult& result);
 
  private:
-  BoxSums near_jumps_;                ///< per pixel, the jumps' pixels in its box
-  std::vector<unsigned char> pairs_;  ///< one row's jump flags
+  /// near_row_[x] = 1 where one of marks_ (one row's jump marks, padded by
+  /// reach_px zeros each side; overwritten) lies within reach_px columns.
+  void dilateRow(int w, int reach_px);
+
+  std::vector<unsigned char> right_, up_, down_;  ///< one row's jumps to its neighbours
+  std::vector<unsigned char> marks_, windows_;    ///< one row's marks; ORs over windows of them
+  std::vector<unsigned char> near_row_;           ///< one row's marks within reach, along it
+  std::vector<int> last_jump_;                    ///< per column, the last row with near_row_ set
 };
 
 }  // namespace detail

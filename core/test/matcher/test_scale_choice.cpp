@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <opencv2/core.hpp>
 
 #include "bdis_stereo/matcher.hpp"
 #include "scale_choice.hpp"
@@ -82,6 +84,73 @@ TEST(ScaleChoice, NearADepthEdgeTheFinerEstimateStays) {
   MatchResult gentle = result(20.f, 0.6f, 0.5f, 24, 9);
   gentle.disparity.colRange(10, 24).setTo(22.f);
   EXPECT_EQ(choice.keepMoreConfident(coarser, 2.f, 3, gentle), 9 * 24);
+}
+
+/// What the choice should do, pixel by pixel: take the coarser estimate
+/// where both estimate, it is more confident and no pixel in the box of
+/// `reach` around takes part in a jump of more than `jump` with a 4-neighbour.
+MatchResult chosenByDefinition(const MatchResult& coarser, const MatchResult& finer, float jump, int reach) {
+  const cv::Mat1f d = finer.disparity;
+  auto in_jump = [&](int y, int x) {
+    const int dx[] = {1, -1, 0, 0}, dy[] = {0, 0, 1, -1};
+    for (int k = 0; k < 4; ++k) {
+      const int u = x + dx[k], v = y + dy[k];
+      if (u < 0 || v < 0 || u >= d.cols || v >= d.rows) continue;
+      if (d(y, x) >= 0.f && d(v, u) >= 0.f && std::fabs(d(y, x) - d(v, u)) > jump) return true;
+    }
+    return false;
+  };
+  MatchResult out;
+  out.disparity = finer.disparity.clone();
+  out.confidence = finer.confidence.clone();
+  out.variance = finer.variance.clone();
+  for (int y = 0; y < d.rows; ++y) {
+    for (int x = 0; x < d.cols; ++x) {
+      bool near = false;
+      for (int v = std::max(0, y - reach); v <= std::min(d.rows - 1, y + reach) && !near; ++v) {
+        for (int u = std::max(0, x - reach); u <= std::min(d.cols - 1, x + reach) && !near; ++u) near = in_jump(v, u);
+      }
+      const bool take = d(y, x) >= 0.f && coarser.disparity.at<float>(y, x) >= 0.f &&
+                        coarser.confidence.at<float>(y, x) > finer.confidence.at<float>(y, x) && !near;
+      if (!take) continue;
+      out.disparity.at<float>(y, x) = coarser.disparity.at<float>(y, x);
+      out.confidence.at<float>(y, x) = coarser.confidence.at<float>(y, x);
+      out.variance.at<float>(y, x) = coarser.variance.at<float>(y, x);
+    }
+  }
+  return out;
+}
+
+TEST(ScaleChoice, MatchesTheDefinitionOnRandomMapsWithHolesAndEdgesEverywhere) {
+  cv::RNG rng(7);
+  for (const int reach : {1, 2, 3, 5, 8, 16}) {
+    for (const cv::Size size : {cv::Size(1, 1), cv::Size(3, 40), cv::Size(37, 2), cv::Size(61, 29)}) {
+      MatchResult finer, coarser;
+      for (MatchResult* r : {&finer, &coarser}) {
+        r->disparity.create(size, CV_32FC1);
+        r->confidence.create(size, CV_32FC1);
+        r->variance.create(size, CV_32FC1);
+        rng.fill(r->confidence, cv::RNG::UNIFORM, 0.f, 1.f);
+        rng.fill(r->variance, cv::RNG::UNIFORM, 0.f, 4.f);
+      }
+      // Mostly smooth steps with a few jumps and holes, so that some boxes
+      // hold no jump at every reach.
+      for (int y = 0; y < size.height; ++y) {
+        for (int x = 0; x < size.width; ++x) {
+          const double u = rng.uniform(0., 1.);
+          finer.disparity.at<float>(y, x) = u < 0.05 ? kNoDisparity : (u < 0.07 ? 40.f : 20.f + 0.01f * static_cast<float>(x));
+          coarser.disparity.at<float>(y, x) = rng.uniform(0., 1.) < 0.1 ? kNoDisparity : 21.f;
+        }
+      }
+      const MatchResult expected = chosenByDefinition(coarser, finer, 2.f, reach);
+      ScaleChoice choice;
+      const int taken = choice.keepMoreConfident(coarser, 2.f, reach, finer);
+      EXPECT_EQ(cv::norm(finer.disparity, expected.disparity, cv::NORM_INF), 0.) << "reach " << reach << " " << size;
+      EXPECT_EQ(cv::norm(finer.confidence, expected.confidence, cv::NORM_INF), 0.) << "reach " << reach;
+      EXPECT_EQ(cv::norm(finer.variance, expected.variance, cv::NORM_INF), 0.) << "reach " << reach;
+      EXPECT_EQ(taken, cv::countNonZero(expected.disparity == 21.f)) << "reach " << reach << " " << size;
+    }
+  }
 }
 
 }  // namespace
