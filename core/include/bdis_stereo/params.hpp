@@ -53,7 +53,7 @@ struct MatcherParams {
   /// Also matches with the finest level one coarser (twice the footprint per
   /// patch) and publishes, per pixel estimated by both and away from depth
   /// edges, the estimate with the higher calibrated confidence: dark, flat
-  /// and block-coded tissue gain, for 1.4 times balanced's time
+  /// and block-coded tissue gain, for 1.3 times balanced's time
   /// (docs/method.md, "Two scales"). Needs calibrated_confidence (without
   /// it, or when the finest level is the coarsest that fits, ignored); on in
   /// accurate.

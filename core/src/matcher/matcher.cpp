@@ -1,8 +1,8 @@
 // BDIS as a pipeline of stages (docs/method.md): the pyramid, then per level
 // patch search -> posterior -> fusion from coarse to fine, then the
 // left-right check, the texture centroid correction, the refinement, the
-// confidence's cues and the upsampling to the input resolution; with
-// two_scales, the choice between it and the same search one level coarser.
+// confidence's cues; with two_scales, the choice between it and the same
+// search one level coarser; the upsampling to the input resolution.
 #include "bdis_stereo/matcher.hpp"
 
 #include <algorithm>
@@ -135,10 +135,29 @@ struct Matcher::Impl {
   detail::TextureCentroidCorrection centroid_correction;
   detail::Upsampler upsampler;
   /// two_scales: the same search with its finest level one coarser, made on
-  /// the first frame that needs it, and its result (buffers reused).
+  /// the first frame that needs it, and its result brought to this finest
+  /// level (buffers reused).
   std::unique_ptr<Matcher> coarser_scale;
-  MatchResult coarser_result;
+  detail::Upsampler coarser_upsampler;
+  MatchResult coarser_here;
   detail::ScaleChoice scale_choice;
+
+  /// What matchToFinestLevel decided for the frame.
+  struct FinestLevel {
+    int index = 0;                    ///< the finest level searched
+    bool with_variance = false;       ///< the variance is computed
+    bool publish_confidence = false;  ///< the confidence is calibrated and published
+    bool two_scales = false;          ///< the coarser scale is matched and chosen from
+  };
+  /// Steps 1-8 of compute(): the pair matched down to the finest level, its
+  /// maps (left.finest()) checked, refined, with their confidence and
+  /// variance. `pyramid_built`: `pyramid` already holds this pair's levels
+  /// (levelsFor them, searchable from the finest level down to it or finer,
+  /// the block grid probed), built with the same saturation and floor.
+  FinestLevel matchToFinestLevel(const cv::Mat& left, const cv::Mat& right, const MatchOutputs& outputs,
+                                 bool pyramid_built = false);
+  /// Levels that hold at least one patch, for frames of `size` (after configureFor).
+  int levelsFor(cv::Size size) const;
 
   /// Configures the searches for frames `width` px wide; a no-op while the
   /// resolved patch size stays the same.
@@ -183,42 +202,99 @@ const MatcherParams& Matcher::params() const { return impl_->params; }
 void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& result, const MatchOutputs& outputs) {
   validateInputs(left, right);
   Impl& m = *impl_;
-  m.configureFor(left.cols);
+  const Impl::FinestLevel level = m.matchToFinestLevel(left, right, outputs);
   const MatcherParams& P = m.resolved;
-  // Levels that hold at least one patch; the finest level is clamped alike.
-  const int levels = detail::levelsThatFit(left.cols, left.rows, P.patch_size, P.coarsest_level + 1);
+  const int finest = level.index;
+  detail::LevelMaps& out = m.left.finest();
+  // 9. With two_scales, the same search one level coarser, brought to this
+  //    level, and per pixel the estimate more likely right.
+  if (level.two_scales) {
+    if (!m.coarser_scale || m.coarser_scale->params().finest_level != finest + 1) {
+      m.coarser_scale = std::make_unique<Matcher>(coarserScaleParams(m.params, finest + 1));
+    }
+    Impl& coarser = *m.coarser_scale->impl_;
+    // The coarser search runs on this pyramid of the same pair (its levels
+    // from finest + 1 are what it would build) where it has as many levels.
+    coarser.configureFor(left.cols);
+    const bool share = coarser.levelsFor(left.size()) == m.pyramid.numLevels();
+    if (share) std::swap(m.pyramid, coarser.pyramid);
+    const int coarser_finest =
+        coarser.matchToFinestLevel(left, right, MatchOutputs{true, level.with_variance}, /*pyramid_built=*/share)
+            .index;
+    if (share) std::swap(m.pyramid, coarser.pyramid);
+    // Levels between the two (1, unless a patch size that changes with the
+    // width left the coarser search fewer levels).
+    const int step = coarser_finest - finest;
+    if (step > 0) {
+      const detail::PyramidLevel& here = m.pyramid.level(finest);
+      m.coarser_upsampler.upsample(coarser.left.finest(), step, here.left_valid, true, m.coarser_here);
+      if (level.with_variance) m.coarser_upsampler.upsampleVariance(coarser.left.finest(), step, m.coarser_here);
+      MatchResult chosen;  // headers on this level's maps
+      chosen.disparity = out.disparity;
+      chosen.confidence = out.confidence;
+      if (level.with_variance) chosen.variance = out.variance;
+      // The reach: one coarser patch side, in this level's px.
+      m.scale_choice.keepMoreConfident(m.coarser_here, detail::kScaleChoiceJumpPx,
+                                       coarser.resolved.patch_size << step, chosen);
+    }
+  }
+  // 10. Upsampling to the input resolution.
+  m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, level.publish_confidence, result);
+  if (level.with_variance) {
+    m.upsampler.upsampleVariance(out, finest, result);
+  } else {
+    result.variance.release();
+  }
+  // 11. The estimates less confident than min_confidence dropped, at the
+  //     resolution the confidence is published at (and their variance).
+  if (P.min_confidence > 0.f) dropLessConfident(P.min_confidence, result);
+}
+
+int Matcher::Impl::levelsFor(cv::Size size) const {
+  return detail::levelsThatFit(size.width, size.height, resolved.patch_size, resolved.coarsest_level + 1);
+}
+
+Matcher::Impl::FinestLevel Matcher::Impl::matchToFinestLevel(const cv::Mat& left, const cv::Mat& right,
+                                                             const MatchOutputs& outputs, bool pyramid_built) {
+  configureFor(left.cols);
+  const MatcherParams& P = resolved;
+  FinestLevel r;
+  const int levels = levelsFor(left.size());
   const int finest = std::min(P.finestLevelFor(left.cols), levels - 1);
+  r.index = finest;
   const bool with_check = P.lr_check_tolerance > 0.f;
   // The confidence is published when asked for or when it decides which
   // estimates are published; it is computed for the variance's outlier term too.
-  const bool with_variance = P.compute_variance && outputs.variance;
+  r.with_variance = P.compute_variance && outputs.variance;
   // two_scales keeps, per pixel, the estimate more confident of the two
   // scales: that takes both calibrated confidences and a coarser level.
-  const bool two_scales = P.two_scales && P.calibrated_confidence && finest + 1 < levels;
-  const bool publish_confidence = outputs.confidence || P.min_confidence > 0.f || two_scales;
-  const bool with_confidence = publish_confidence || with_variance;
+  r.two_scales = P.two_scales && P.calibrated_confidence && finest + 1 < levels;
+  r.publish_confidence = outputs.confidence || P.min_confidence > 0.f || r.two_scales;
+  const bool with_confidence = r.publish_confidence || r.with_variance;
 
   // 1. Pyramid: grey levels, gradients and validity of the pair.
-  m.pyramid.build(left, right, levels, finest, P.saturation_grey, P.dark_floor_grey,
+  if (!pyramid_built) {
+    pyramid.build(left, right, levels, finest, P.saturation_grey, P.dark_floor_grey,
                   /*probe_block_grid=*/with_confidence);
+  }
   // 2. Coarse to fine above the finest level; each level initialises the next.
-  m.matchLevelsAboveFinest(left.size(), levels, finest);
+  matchLevelsAboveFinest(left.size(), levels, finest);
   if (with_check) {
-    const MatcherParams& C = m.check.params();
+    const MatcherParams& C = check.params();
     const int band_rows = detail::bandLevelRows(C.search_band_rows, detail::patchStride(C.patch_size, C.overlap),
-                                                C.patch_size, m.pyramid.level(finest).height);
-    m.mirrored.build(m.pyramid, levels, finest, band_rows);
-    m.check.matchLevelsAboveFinest(m.mirrored, left.size(), levels, finest);
+                                                C.patch_size, pyramid.level(finest).height);
+    mirrored.build(pyramid, levels, finest, band_rows);
+    check.matchLevelsAboveFinest(mirrored, left.size(), levels, finest);
   }
   // 3. The finest level, band by band, then fused.
-  m.searchFinestLevel(finest, with_check);
-  m.left.fuseFinestLevel();
-  if (with_check) m.check.fuseFinestLevel();
+  searchFinestLevel(finest, with_check);
+  this->left.fuseFinestLevel();
+  if (with_check) check.fuseFinestLevel();
   // 4. The left-right check, at the finest level's scale.
-  detail::LevelMaps& out = m.left.finest();
+  detail::LevelMaps& out = this->left.finest();
   const float level_px = 1.f / static_cast<float>(1 << finest);
   if (with_check) {
-    detail::leftRightCheck(m.check.finest().disparity, P.checkToleranceFor(left.cols) * level_px,
+    detail::leftRightCheck(check.finest().disparity, P.checkToleranceFor(left.cols) * level_px,
                            detail::kLeftRightHalvingPx * level_px, out.disparity, out.confidence,
                            P.compute_variance ? &out.variance : nullptr);
   }
@@ -226,42 +302,22 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   //    its pixel, along the surface's slope; then the variational
   //    refinement of the estimates the check kept, which pins them to the
   //    images where their texture can.
-  m.centroid_correction.apply(m.pyramid.level(finest), P.patch_size, detail::kCentroidShiftLimitPx * level_px,
-                              out.disparity);
-  m.refinement.apply(m.pyramid.level(finest), m.left.aboveFinest(), out.disparity);
+  centroid_correction.apply(pyramid.level(finest), P.patch_size, detail::kCentroidShiftLimitPx * level_px,
+                            out.disparity);
+  refinement.apply(pyramid.level(finest), this->left.aboveFinest(), out.disparity);
   // 6. The confidence's cues, only when the confidence is computed: they
   //    change no disparity.
-  if (with_confidence) m.applyConfidenceCues(finest, out);
+  if (with_confidence) applyConfidenceCues(finest, out);
   // 7. The variance's outlier term: the outlier's squared error times the
   //    probability the cues' product (the confidence, not yet calibrated)
   //    gives the estimate of being one.
-  if (with_variance) {
+  if (r.with_variance) {
     detail::addOutlierVariance(out.disparity, out.confidence, detail::kOutlierVariancePx2 * level_px * level_px,
                                detail::kOutlierHalfConfidence, out.variance);
   }
   // 8. The published confidence as the probability of being within 2 px.
-  if (publish_confidence && P.calibrated_confidence) detail::calibrateConfidence(out.confidence, finest);
-  // 9. Upsampling to the input resolution.
-  m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, publish_confidence, result);
-  if (with_variance) {
-    m.upsampler.upsampleVariance(out, finest, result);
-  } else {
-    result.variance.release();
-  }
-  // 10. With two_scales, the same search one level coarser, and per pixel
-  //     the estimate more likely right.
-  if (two_scales) {
-    if (!m.coarser_scale || m.coarser_scale->params().finest_level != finest + 1) {
-      m.coarser_scale = std::make_unique<Matcher>(coarserScaleParams(m.params, finest + 1));
-    }
-    m.coarser_scale->compute(left, right, m.coarser_result, MatchOutputs{true, with_variance});
-    // One coarser patch side, in input px.
-    const int coarser_patch_px = m.coarser_scale->params().patchSizeFor(left.cols) << (finest + 1);
-    m.scale_choice.keepMoreConfident(m.coarser_result, detail::kScaleChoiceJumpPx, coarser_patch_px, result);
-  }
-  // 11. The estimates less confident than min_confidence dropped, at the
-  //     resolution the confidence is published at (and their variance).
-  if (P.min_confidence > 0.f) dropLessConfident(P.min_confidence, result);
+  if (r.publish_confidence && P.calibrated_confidence) detail::calibrateConfidence(out.confidence, finest);
+  return r;
 }
 
 void Matcher::Impl::applyConfidenceCues(int finest, detail::LevelMaps& out) {

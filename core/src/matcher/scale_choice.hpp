@@ -14,13 +14,16 @@
 namespace bdis {
 namespace detail {
 
-/// A jump larger than this (input px) between 4-neighbouring estimates is a
-/// depth edge for the choice: the outlier threshold.
+/// A jump larger than this (level px) between 4-neighbouring estimates of
+/// the finest level is a depth edge for the choice. The upsampling spreads a
+/// jump of J level px into steps of J input px, so this is the outlier
+/// threshold (2 input px) between input pixels; 1 level px would take steep
+/// slopes for edges too (docs/method.md, "Two scales").
 constexpr float kScaleChoiceJumpPx = 2.f;
 
 class ScaleChoice {
  public:
-  /// Where both `result` and `coarser` (the same input size) have an
+  /// Where both `result` and `coarser` (maps of the same size) have an
   /// estimate, `coarser`'s confidence is higher and no jump of more than
   /// `jump_px` between `result`'s 4-neighbouring estimates lies within
   /// `reach_px` >= 1 (a box of side 2 reach_px + 1: one coarser patch side, so no
