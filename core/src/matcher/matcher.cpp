@@ -158,6 +158,11 @@ struct Matcher::Impl {
                                  bool pyramid_built = false);
   /// Levels that hold at least one patch, for frames of `size` (after configureFor).
   int levelsFor(cv::Size size) const;
+  /// Step 9 of compute(), after matchToFinestLevel decided `level` with
+  /// two_scales: the same search one level coarser, on this pyramid where it
+  /// has as many levels, brought to this finest level; where it is the more
+  /// confident away from depth edges, its estimates replace left.finest()'s.
+  void keepMoreConfidentOfCoarserScale(const cv::Mat& left, const cv::Mat& right, const FinestLevel& level);
 
   /// Configures the searches for frames `width` px wide; a no-op while the
   /// resolved patch size stays the same.
@@ -208,36 +213,7 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   detail::LevelMaps& out = m.left.finest();
   // 9. With two_scales, the same search one level coarser, brought to this
   //    level, and per pixel the estimate more likely right.
-  if (level.two_scales) {
-    if (!m.coarser_scale || m.coarser_scale->params().finest_level != finest + 1) {
-      m.coarser_scale = std::make_unique<Matcher>(coarserScaleParams(m.params, finest + 1));
-    }
-    Impl& coarser = *m.coarser_scale->impl_;
-    // The coarser search runs on this pyramid of the same pair (its levels
-    // from finest + 1 are what it would build) where it has as many levels.
-    coarser.configureFor(left.cols);
-    const bool share = coarser.levelsFor(left.size()) == m.pyramid.numLevels();
-    if (share) std::swap(m.pyramid, coarser.pyramid);
-    const int coarser_finest =
-        coarser.matchToFinestLevel(left, right, MatchOutputs{true, level.with_variance}, /*pyramid_built=*/share)
-            .index;
-    if (share) std::swap(m.pyramid, coarser.pyramid);
-    // Levels between the two (1, unless a patch size that changes with the
-    // width left the coarser search fewer levels).
-    const int step = coarser_finest - finest;
-    if (step > 0) {
-      const detail::PyramidLevel& here = m.pyramid.level(finest);
-      m.coarser_upsampler.upsample(coarser.left.finest(), step, here.left_valid, true, m.coarser_here);
-      if (level.with_variance) m.coarser_upsampler.upsampleVariance(coarser.left.finest(), step, m.coarser_here);
-      MatchResult chosen;  // headers on this level's maps
-      chosen.disparity = out.disparity;
-      chosen.confidence = out.confidence;
-      if (level.with_variance) chosen.variance = out.variance;
-      // The reach: one coarser patch side, in this level's px.
-      m.scale_choice.keepMoreConfident(m.coarser_here, detail::kScaleChoiceJumpPx,
-                                       coarser.resolved.patch_size << step, chosen);
-    }
-  }
+  if (level.two_scales) m.keepMoreConfidentOfCoarserScale(left, right, level);
   // 10. Upsampling to the input resolution.
   m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, level.publish_confidence, result);
   if (level.with_variance) {
@@ -248,6 +224,40 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   // 11. The estimates less confident than min_confidence dropped, at the
   //     resolution the confidence is published at (and their variance).
   if (P.min_confidence > 0.f) dropLessConfident(P.min_confidence, result);
+}
+
+void Matcher::Impl::keepMoreConfidentOfCoarserScale(const cv::Mat& left, const cv::Mat& right,
+                                                    const FinestLevel& level) {
+  const int finest = level.index;
+  detail::LevelMaps& out = this->left.finest();
+  if (!coarser_scale || coarser_scale->params().finest_level != finest + 1) {
+    coarser_scale = std::make_unique<Matcher>(coarserScaleParams(params, finest + 1));
+  }
+  Impl& coarser = *coarser_scale->impl_;
+  // The coarser search runs on this pyramid of the same pair (its levels
+  // from finest + 1 are what it would build) where it has as many levels.
+  coarser.configureFor(left.cols);
+  const bool share = coarser.levelsFor(left.size()) == pyramid.numLevels();
+  if (share) std::swap(pyramid, coarser.pyramid);
+  const int coarser_finest =
+      coarser.matchToFinestLevel(left, right, MatchOutputs{true, level.with_variance}, /*pyramid_built=*/share)
+          .index;
+  if (share) std::swap(pyramid, coarser.pyramid);
+  // Levels between the two (1, unless a patch size that changes with the
+  // width left the coarser search fewer levels).
+  const int step = coarser_finest - finest;
+  if (step > 0) {
+    const detail::PyramidLevel& here = pyramid.level(finest);
+    coarser_upsampler.upsample(coarser.left.finest(), step, here.left_valid, true, coarser_here);
+    if (level.with_variance) coarser_upsampler.upsampleVariance(coarser.left.finest(), step, coarser_here);
+    MatchResult chosen;  // headers on this level's maps
+    chosen.disparity = out.disparity;
+    chosen.confidence = out.confidence;
+    if (level.with_variance) chosen.variance = out.variance;
+    // The reach: one coarser patch side, in this level's px.
+    scale_choice.keepMoreConfident(coarser_here, detail::kScaleChoiceJumpPx, coarser.resolved.patch_size << step,
+                                   chosen);
+  }
 }
 
 int Matcher::Impl::levelsFor(cv::Size size) const {
