@@ -418,6 +418,111 @@ class TestDemo(unittest.TestCase):
         self.assertIn("unknown scene variant 'nope'", unknown.stderr)
         self.assertFalse(os.path.exists(os.path.join(cache, "nope_s3")))
 
+    def test_9b_eval_generated_adds_coded_renders_and_in_vivo_sequences(self):
+        """scripts/eval_generated.sh --coded / --invivo: the coded variants
+        rendered again with JPEG views under their own name (the views show
+        the codec's 8 x 8 grid, the plain ones do not), beside the plain render
+        in one bdis_eval run; a quality out of range refused; the in-vivo
+        sequences of $BDIS_DATA_DIR scored without ground truth, a missing one
+        named and left out."""
+        cache = os.path.join(self.tmp, "generated_coded")
+        data = os.path.join(self.tmp, "data_invivo")
+        rng = np.random.default_rng(5)
+        texture = cv2.GaussianBlur(rng.uniform(0, 255, (48, 72)).astype(np.float32), (0, 0), 1.5)
+        views = {"left": np.clip(texture, 0, 255).astype(np.uint8),
+                 "right": np.clip(np.roll(texture, -4, axis=1), 0, 255).astype(np.uint8)}
+        for side, image in views.items():
+            os.makedirs(os.path.join(data, "invivo_hamlyn_a", side))
+            self.assertTrue(cv2.imwrite(os.path.join(data, "invivo_hamlyn_a", side, "000000.png"), image))
+        script = os.path.join(REPO, "scripts", "eval_generated.sh")
+        env = dict(os.environ, BDIS_GENERATED_DIR=cache, BDIS_SKIP_BUILD="1", BDIS_DATA_DIR=data)
+        json_path = os.path.join(self.tmp, "coded.json")
+
+        def run(*options):
+            return subprocess.run(["bash", script, "--variants", "diffuse", "--seeds", "3", "--frames", "1"]
+                                  + list(options) + ["--no-shared", "--", "--methods", "bdis", "--json", json_path],
+                                  env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+        r = run("--coded", "diffuse", "--coded-seeds", "3", "--jpeg-quality", "40", "--invivo")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("rendering diffuse, seed 3, 1 frames, JPEG quality 40", r.stderr)
+        self.assertIn("invivo_hamlyn_b not found", r.stderr)
+        with open(json_path) as f:
+            results = {res["sequence"]: res for res in json.load(f)["results"]}
+        self.assertEqual(set(results), {"diffuse_s3", "diffuse_s3_q40", "invivo_hamlyn_a"})
+        self.assertGreaterEqual(results["diffuse_s3_q40"]["block_grid_contrast"], 1.2)
+        self.assertLess(results["diffuse_s3"]["block_grid_contrast"], 1.2)
+        self.assertTrue(results["diffuse_s3_q40"]["ground_truth"])
+        self.assertFalse(results["invivo_hamlyn_a"]["ground_truth"])
+        self.assertIn("border_outliers", results["invivo_hamlyn_a"])
+        bad = run("--coded", "diffuse", "--jpeg-quality", "101")
+        self.assertEqual(bad.returncode, 2, bad.stderr)
+        self.assertIn("--jpeg-quality must be 1..100", bad.stderr)
+
+    def test_9c_eval_summary_condenses_and_compares_runs(self):
+        """scripts/eval_summary.py on two constructed bdis_eval runs: the
+        means, the ranking's geometric mean and the sequences over each
+        target, the variance bands, the band beside the instrument, the
+        in-vivo border, and per sequence what changed; another method's
+        results are left out; a file that is not a run exits 1."""
+        def result(name, bad2, density, ratio, top, monotone, within=(0.7, 0.95), beside=None):
+            r = {"sequence": name, "method": "bdis", "ground_truth": True, "bad2": bad2, "density": density,
+                 "miss_or_bad2": 1 - density + density * bad2,
+                 "confidence": {"ratio": ratio, "bad2_top50": top, "monotone": monotone},
+                 "variance": {"within_1_sigma": within[0], "within_2_sigma": within[1]}}
+            if beside is not None:
+                r["instrument_bands"] = {"tissue_within_12px": {"confident_bad2_share": beside}}
+            return r
+        invivo = {"sequence": "invivo_x", "method": "bdis", "ground_truth": False, "border_outliers": 0.05,
+                  "valid_pixel_density": 0.9}
+        other = dict(result("a", 0.5, 0.5, 9.0, 0.5, False), method="dis_fast")
+        first = [result("a", 0.10, 0.8, 2.0, 0.01, True), result("b", 0.20, 0.6, 4.5, 0.05, False, (0.9, 0.99)),
+                 result("c", 0.30, 0.7, 4.0, 0.02, True, beside=0.04), invivo, other]
+        second = [result("a", 0.05, 0.8, 2.0, 0.01, True), result("b", 0.10, 0.6, 2.0, 0.01, True),
+                  result("c", 0.15, 0.7, 4.0, 0.02, True, beside=0.01), dict(invivo, border_outliers=0.01), other]
+        paths = []
+        for name, results in (("first", first), ("second", second)):
+            paths.append(os.path.join(self.tmp, "summary_%s.json" % name))
+            with open(paths[-1], "w") as f:
+                json.dump({"params": {}, "results": results}, f)
+        script = os.path.join(REPO, "scripts", "eval_summary.py")
+
+        def summary(*args):
+            return subprocess.run([sys.executable, script] + list(args), stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, text=True)
+        one = summary(paths[0])
+        self.assertEqual(one.returncode, 0, one.stderr)
+        self.assertEqual(one.stdout.splitlines(), [
+            "sequences with ground truth: 3",
+            "mean bad2 / density / miss_or_bad2: 20.00 % / 0.700 / 43.67 %",
+            "ranking ratio: geometric mean, worst: 3.302, 4.50 (b)",  # (2 x 4.5 x 4) ^ (1/3)
+            "ranking ratio over 3: 2 of 3 (b, c)",
+            "most confident half over 3 % bad2: 1 of 3 (b)",
+            "bad2 falling across the deciles: 2 of 3 (not: b)",
+            "variance within 1 and 2 sigma in their bands: 2 of 3",
+            "beside the instrument, wrong at >= 0.5: largest: 4.00 % (c)",
+            "invivo_x: border outliers / density: 5.00 % / 0.900",
+        ])
+        two = summary(*paths)
+        self.assertEqual(two.returncode, 0, two.stderr)
+        lines = two.stdout.splitlines()
+        self.assertIn("mean bad2 / density / miss_or_bad2: 20.00 % / 0.700 / 43.67 % -> "
+                      "10.00 % / 0.700 / 36.83 %", lines)
+        self.assertIn("ranking ratio over 3: 2 of 3 (b, c) -> 1 of 3 (c)", lines)
+        self.assertIn("invivo_x: border outliers / density: 5.00 % / 0.900 -> 1.00 % / 0.900", lines)
+        self.assertIn("b                            density 0.600 -> 0.600  bad2 20.00 -> 10.00 %  "
+                      "ratio 4.50 -> 2.00  top half 5.0 -> 1.0 %", lines)
+        self.assertEqual(sum(line.startswith(("a ", "b ", "c ")) for line in lines), 3)
+        self.assertIn("ranking ratio: geometric mean, worst: 9.000, 9.00 (a)",
+                      summary(paths[0], "--method", "dis_fast").stdout)
+        broken = os.path.join(self.tmp, "summary_broken.json")
+        with open(broken, "w") as f:
+            f.write("not json")
+        failed = summary(broken)
+        self.assertEqual(failed.returncode, 1)
+        self.assertIn("cannot read", failed.stderr)
+        self.assertEqual(summary(paths[0], paths[1], paths[0]).returncode, 2)
+
 
 if __name__ == "__main__":
     import rosunit
