@@ -154,8 +154,11 @@ struct Matcher::Impl {
   /// variance. `pyramid_built`: `pyramid` already holds this pair's levels
   /// (levelsFor them, searchable from the finest level down to it or finer,
   /// the block grid probed), built with the same saturation and floor.
+  /// `levels_from`: a matcher of the same search settings that matched this
+  /// pyramid to a finer level without gain compensation; both searches take
+  /// the levels above this finest level from its searches.
   FinestLevel matchToFinestLevel(const cv::Mat& left, const cv::Mat& right, const MatchOutputs& outputs,
-                                 bool pyramid_built = false);
+                                 bool pyramid_built = false, const Impl* levels_from = nullptr);
   /// Levels that hold at least one patch, for frames of `size` (after configureFor).
   int levelsFor(cv::Size size) const;
   /// Step 9 of compute(), after matchToFinestLevel decided `level` with
@@ -238,9 +241,17 @@ void Matcher::Impl::keepMoreConfidentOfCoarserScale(const cv::Mat& left, const c
   // from finest + 1 are what it would build) where it has as many levels.
   coarser.configureFor(left.cols);
   const bool share = coarser.levelsFor(left.size()) == pyramid.numLevels();
+  // Its levels above its finest are then this search's too, unless the gain
+  // compensation divided the right views as the levels went (each search
+  // measures the gain on levels of its own) or a patch size that changes
+  // with the width made the two searches differ.
+  const bool same_levels_above =
+      share && !resolved.gain_compensation && coarser.resolved.patch_size == resolved.patch_size;
   if (share) std::swap(pyramid, coarser.pyramid);
   const int coarser_finest =
-      coarser.matchToFinestLevel(left, right, MatchOutputs{true, level.with_variance}, /*pyramid_built=*/share)
+      coarser
+          .matchToFinestLevel(left, right, MatchOutputs{true, level.with_variance}, /*pyramid_built=*/share,
+                              same_levels_above ? this : nullptr)
           .index;
   if (share) std::swap(pyramid, coarser.pyramid);
   // Levels between the two (1, unless a patch size that changes with the
@@ -265,7 +276,8 @@ int Matcher::Impl::levelsFor(cv::Size size) const {
 }
 
 Matcher::Impl::FinestLevel Matcher::Impl::matchToFinestLevel(const cv::Mat& left, const cv::Mat& right,
-                                                             const MatchOutputs& outputs, bool pyramid_built) {
+                                                             const MatchOutputs& outputs, bool pyramid_built,
+                                                             const Impl* levels_from) {
   configureFor(left.cols);
   const MatcherParams& P = resolved;
   FinestLevel r;
@@ -288,13 +300,21 @@ Matcher::Impl::FinestLevel Matcher::Impl::matchToFinestLevel(const cv::Mat& left
                   /*probe_block_grid=*/with_confidence);
   }
   // 2. Coarse to fine above the finest level; each level initialises the next.
-  matchLevelsAboveFinest(left.size(), levels, finest);
+  if (levels_from) {
+    this->left.adoptLevelsAboveFinest(levels_from->left, left.size(), levels, finest);
+  } else {
+    matchLevelsAboveFinest(left.size(), levels, finest);
+  }
   if (with_check) {
     const MatcherParams& C = check.params();
     const int band_rows = detail::bandLevelRows(C.search_band_rows, detail::patchStride(C.patch_size, C.overlap),
                                                 C.patch_size, pyramid.level(finest).height);
     mirrored.build(pyramid, levels, finest, band_rows);
-    check.matchLevelsAboveFinest(mirrored, left.size(), levels, finest);
+    if (levels_from) {
+      check.adoptLevelsAboveFinest(levels_from->check, left.size(), levels, finest);
+    } else {
+      check.matchLevelsAboveFinest(mirrored, left.size(), levels, finest);
+    }
   }
   // 3. The finest level, band by band, then fused.
   searchFinestLevel(finest, with_check);

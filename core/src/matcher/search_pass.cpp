@@ -60,6 +60,12 @@ void SearchPass::matchCoarseLevel(const PyramidLevel& L, int s) {
   fusion_.fuseInitialisation(search_.grid(), search_.estimates(), coarse, initialisation_[static_cast<size_t>(s)]);
 }
 
+void SearchPass::adoptLevelsAboveFinest(const SearchPass& finer, cv::Size size, int levels, int finest) {
+  allocate(size, levels, finest);
+  // Level `levels` is all 0 on both sides; a copy into a buffer of the same size allocates nothing.
+  finer.levelDisparity(finest + 1).copyTo(initialisation_[static_cast<size_t>(finest) + 1]);
+}
+
 void SearchPass::beginFinestLevel(const PyramidLevel& L, int s, const PyramidLevel* coarser) {
   finest_level_ = s;
   search_.beginLevel(L, patchStride(params_.patch_size, params_.overlap), coarser,

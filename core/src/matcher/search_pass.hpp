@@ -38,6 +38,12 @@ class SearchPass {
   void matchCoarseLevel(const PyramidLevel& L, int s);
   /// The dense disparity of level s > finest (level px), once it is matched.
   const cv::Mat1f& levelDisparity(int s) const { return initialisation_[static_cast<size_t>(s)]; }
+  /// In place of matchLevelsAboveFinest: the level above the finest as
+  /// `finer` matched it on the way to a finer level. The same result where
+  /// `finer` ran the same settings on the same pyramid levels with the same
+  /// right views (no gain compensation), since the finest level and the
+  /// refinement read no other level's disparity.
+  void adoptLevelsAboveFinest(const SearchPass& finer, cv::Size size, int levels, int finest);
 
   /// The finest level, s: beginFinestLevel, then searchFinestBand for
   /// every band of patch rows of grid() from the top, then fuseFinestLevel.
