@@ -130,6 +130,12 @@ constexpr float kOutlierVariancePx2 = 20.f;
 /// per level above the first: 0.71 at level 2, 0.5 at level 3 (docs/method.md,
 /// "The outlier term", at a coarser finest level).
 constexpr float kVarianceScalePerLevel = 0.70710678f;
+/// That narrowing at finest level `s`: 1 up to level 1.
+inline float varianceNarrowingAt(int s) {
+  float factor = 1.f;
+  for (int level = 2; level <= s; ++level) factor *= kVarianceScalePerLevel;
+  return factor;
+}
 
 /// 1 for agreement, 1/2 at `halving`, falling as 1 / (1 + (deviation / halving)^2):
 /// no exp per pixel, and it vectorises.

@@ -87,15 +87,6 @@ void dropLessConfident(float min_confidence, MatchResult& result) {
   }
 }
 
-/// Every variance times `factor` (NaN stays NaN); a row loop, since cv's
-/// operators may allocate.
-void scaleVariance(float factor, cv::Mat1f& variance) {
-  for (int y = 0; y < variance.rows; ++y) {
-    float* v = variance[y];
-    for (int x = 0; x < variance.cols; ++x) v[x] *= factor;
-  }
-}
-
 /// The parameters of the two_scales search one level coarser: the same
 /// search with its finest level at `finest` (resolved), alone, dropping nothing.
 MatcherParams coarserScaleParams(const MatcherParams& P, int finest) {
@@ -226,16 +217,13 @@ void Matcher::compute(const cv::Mat& left, const cv::Mat& right, MatchResult& re
   // 9. With two_scales, the same search one level coarser, brought to this
   //    level, and per pixel the estimate more likely right.
   if (level.two_scales) m.keepMoreConfidentOfCoarserScale(left, right, level);
-  //    The variance is narrowed where this search's finest level is coarser
-  //    than the level it was fitted at (by this level: at level 1 the
-  //    coarser scale's chosen estimates keep the variance that fits them).
-  if (level.with_variance && finest >= 2) {
-    scaleVariance(std::pow(detail::kVarianceScalePerLevel, static_cast<float>(finest - 1)), out.variance);
-  }
-  // 10. Upsampling to the input resolution.
+  // 10. Upsampling to the input resolution. The variance is narrowed where
+  //     this search's finest level is coarser than the level it was fitted
+  //     at (by this level: at level 1 the coarser scale's chosen estimates
+  //     keep the variance that fits them).
   m.upsampler.upsample(out, finest, m.pyramid.level(0).left_valid, level.publish_confidence, result);
   if (level.with_variance) {
-    m.upsampler.upsampleVariance(out, finest, result);
+    m.upsampler.upsampleVariance(out, finest, result, detail::varianceNarrowingAt(finest));
   } else {
     result.variance.release();
   }

@@ -216,13 +216,13 @@ void Upsampler::upsample(const LevelMaps& level, int s, const cv::Mat1b& full_va
   }
 }
 
-void Upsampler::upsampleVariance(const LevelMaps& level, int s, MatchResult& out) {
+void Upsampler::upsampleVariance(const LevelMaps& level, int s, MatchResult& out, float calibration) {
   const int W = out.disparity.cols, H = out.disparity.rows;
   const int level_width = level.disparity.cols, level_height = level.disparity.rows;
   out.variance.create(H, W, CV_32FC1);
   const float scale = static_cast<float>(1 << s);
   const float inv = 1.f / scale;
-  const float var_scale = scale * scale;
+  const float var_scale = scale * scale * calibration;
   variance_.resize(static_cast<size_t>(level_width));
   for (int y = 0; y < H; ++y) {
     const RowTaps t = rowTaps(y, level_height, inv);

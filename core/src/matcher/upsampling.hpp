@@ -22,9 +22,9 @@ class Upsampler {
   /// bilinear weight.
   void upsample(const LevelMaps& level, int s, const cv::Mat1b& full_valid, bool with_confidence, MatchResult& out);
   /// out.variance from level.variance, after upsample(): the bilinear mean
-  /// of the neighbours with an estimate, scaled by 4^s; NaN where
-  /// out.disparity has no estimate.
-  void upsampleVariance(const LevelMaps& level, int s, MatchResult& out);
+  /// of the neighbours with an estimate, scaled by 4^s times `calibration`;
+  /// NaN where out.disparity has no estimate.
+  void upsampleVariance(const LevelMaps& level, int s, MatchResult& out, float calibration = 1.f);
 
  private:
   /// The level columns and weight of each output column (the same on every row).
