@@ -13,7 +13,8 @@ Per run:
   - the sequences whose most confident half is over 3 % bad2, and those whose
     bad2 does not fall across the confidence deciles;
   - with compute_variance: the sequences with 60-80 % of the errors within 1
-    sigma and 90-98 % within 2;
+    sigma and 90-98 % within 2, and the median over them of the median
+    |error| / sigma;
   - with an instrument (labels): the largest share of the tissue within 12 px
     of it that is wrong at confidence >= 0.5;
   - per sequence without ground truth (in vivo): the outliers along the
@@ -24,6 +25,7 @@ method, 2 on a usage error."""
 import argparse
 import json
 import math
+import statistics
 import sys
 
 RATIO_TARGET = 3.0       # sparsification area over the oracle's
@@ -102,6 +104,11 @@ def summary(runs):
         if bands:
             lines.append(("variance within 1 and 2 sigma in their bands", "%d of %d" % (
                 sum(bands.values()), len(bands))))
+            medians = [v for v in (figure(r, "variance", "median_error_over_sigma") for r in scored.values())
+                       if v is not None]
+            if medians:
+                lines.append(("variance: median over the sequences of median |error| / sigma (a Gaussian: 0.674)",
+                              "%.2f" % statistics.median(medians)))
         beside = {k: figure(r, "instrument_bands", "tissue_within_12px", "confident_bad2_share")
                   for k, r in scored.items()}
         beside = {k: v for k, v in beside.items() if v is not None}

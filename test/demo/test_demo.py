@@ -469,7 +469,8 @@ class TestDemo(unittest.TestCase):
             r = {"sequence": name, "method": "bdis", "ground_truth": True, "bad2": bad2, "density": density,
                  "miss_or_bad2": 1 - density + density * bad2,
                  "confidence": {"ratio": ratio, "bad2_top50": top, "monotone": monotone},
-                 "variance": {"within_1_sigma": within[0], "within_2_sigma": within[1]}}
+                 "variance": {"within_1_sigma": within[0], "within_2_sigma": within[1],
+                              "median_error_over_sigma": 2 * within[0] - 0.8}}  # 0.6, or 1.0 for b
             if beside is not None:
                 r["instrument_bands"] = {"tissue_within_12px": {"confident_bad2_share": beside}}
             return r
@@ -500,6 +501,7 @@ class TestDemo(unittest.TestCase):
             "most confident half over 3 % bad2: 1 of 3 (b)",
             "bad2 falling across the deciles: 2 of 3 (not: b)",
             "variance within 1 and 2 sigma in their bands: 2 of 3",
+            "variance: median over the sequences of median |error| / sigma (a Gaussian: 0.674): 0.60",
             "beside the instrument, wrong at >= 0.5: largest: 4.00 % (c)",
             "invivo_x: border outliers / density: 5.00 % / 0.900",
         ])
