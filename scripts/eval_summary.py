@@ -15,8 +15,9 @@ Per run:
   - with compute_variance: the sequences with 60-80 % of the errors within 1
     sigma and 90-98 % within 2, and the median over them of the median
     |error| / sigma;
-  - with an instrument (labels): the largest share of the tissue within 12 px
-    of it that is wrong at confidence >= 0.5;
+  - with an instrument (labels): the share of the tissue within 12 px of it
+    that is wrong at confidence >= 0.5, its mean over those sequences and the
+    largest;
   - per sequence without ground truth (in vivo): the outliers along the
     rectification border.
 Sequences are matched between the runs by name (bdis_eval's, the directory's).
@@ -114,8 +115,8 @@ def summary(runs):
         beside = {k: v for k, v in beside.items() if v is not None}
         if beside:
             worst = max(beside, key=beside.get)
-            lines.append(("beside the instrument, wrong at >= 0.5: largest", "%.2f %% (%s)" % (
-                100 * beside[worst], worst)))
+            lines.append(("beside the instrument, wrong at >= 0.5: mean, largest", "%.2f %%, %.2f %% (%s)" % (
+                100 * statistics.mean(beside.values()), 100 * beside[worst], worst)))
     for k, r in sorted(runs.items()):
         if not r.get("ground_truth") and r.get("border_outliers") is not None:
             lines.append(("%s: border outliers / density" % k, "%.2f %% / %.3f" % (
@@ -124,7 +125,8 @@ def summary(runs):
 
 
 def per_sequence(a, b):
-    """Per sequence scored in both runs: density, bad2, ratio, most confident half."""
+    """Per sequence scored in both runs: density, bad2, ratio, most confident
+    half, and with an instrument the tissue beside it wrong at >= 0.5."""
     rows = []
     for k in sorted(set(a) & set(b)):
         ra, rb = a[k], b[k]
@@ -135,9 +137,13 @@ def per_sequence(a, b):
             va, vb = figure(ra, *keys), figure(rb, *keys)
             text = lambda v: "-" if v is None else fmt % (scale * v)  # noqa: E731
             return "%s -> %s" % (text(va), text(vb))
-        rows.append("%-28s density %s  bad2 %s %%  ratio %s  top half %s %%" % (
+        row = "%-28s density %s  bad2 %s %%  ratio %s  top half %s %%" % (
             k, pair("%.3f", 1, "density"), pair("%.2f", 100, "bad2"), pair("%.2f", 1, "confidence", "ratio"),
-            pair("%.1f", 100, "confidence", "bad2_top50")))
+            pair("%.1f", 100, "confidence", "bad2_top50"))
+        beside = ("instrument_bands", "tissue_within_12px", "confident_bad2_share")
+        if figure(ra, *beside) is not None or figure(rb, *beside) is not None:
+            row += "  beside %s %%" % pair("%.2f", 100, *beside)
+        rows.append(row)
     return rows
 
 

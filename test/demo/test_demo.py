@@ -477,9 +477,10 @@ class TestDemo(unittest.TestCase):
         invivo = {"sequence": "invivo_x", "method": "bdis", "ground_truth": False, "border_outliers": 0.05,
                   "valid_pixel_density": 0.9}
         other = dict(result("a", 0.5, 0.5, 9.0, 0.5, False), method="dis_fast")
-        first = [result("a", 0.10, 0.8, 2.0, 0.01, True), result("b", 0.20, 0.6, 4.5, 0.05, False, (0.9, 0.99)),
+        first = [result("a", 0.10, 0.8, 2.0, 0.01, True, beside=0.02),
+                 result("b", 0.20, 0.6, 4.5, 0.05, False, (0.9, 0.99)),
                  result("c", 0.30, 0.7, 4.0, 0.02, True, beside=0.04), invivo, other]
-        second = [result("a", 0.05, 0.8, 2.0, 0.01, True), result("b", 0.10, 0.6, 2.0, 0.01, True),
+        second = [result("a", 0.05, 0.8, 2.0, 0.01, True, beside=0.03), result("b", 0.10, 0.6, 2.0, 0.01, True),
                   result("c", 0.15, 0.7, 4.0, 0.02, True, beside=0.01), dict(invivo, border_outliers=0.01), other]
         paths = []
         for name, results in (("first", first), ("second", second)):
@@ -502,7 +503,7 @@ class TestDemo(unittest.TestCase):
             "bad2 falling across the deciles: 2 of 3 (not: b)",
             "variance within 1 and 2 sigma in their bands: 2 of 3",
             "variance: median over the sequences of median |error| / sigma (a Gaussian: 0.674): 0.60",
-            "beside the instrument, wrong at >= 0.5: largest: 4.00 % (c)",
+            "beside the instrument, wrong at >= 0.5: mean, largest: 3.00 %, 4.00 % (c)",
             "invivo_x: border outliers / density: 5.00 % / 0.900",
         ])
         two = summary(*paths)
@@ -514,6 +515,10 @@ class TestDemo(unittest.TestCase):
         self.assertIn("invivo_x: border outliers / density: 5.00 % / 0.900 -> 1.00 % / 0.900", lines)
         self.assertIn("b                            density 0.600 -> 0.600  bad2 20.00 -> 10.00 %  "
                       "ratio 4.50 -> 2.00  top half 5.0 -> 1.0 %", lines)
+        self.assertIn("beside the instrument, wrong at >= 0.5: mean, largest: 3.00 %, 4.00 % (c) -> "
+                      "2.00 %, 3.00 % (a)", lines)
+        self.assertIn("c                            density 0.700 -> 0.700  bad2 30.00 -> 15.00 %  "
+                      "ratio 4.00 -> 4.00  top half 2.0 -> 2.0 %  beside 4.00 -> 1.00 %", lines)
         self.assertEqual(sum(line.startswith(("a ", "b ", "c ")) for line in lines), 3)
         self.assertIn("ranking ratio: geometric mean, worst: 9.000, 9.00 (a)",
                       summary(paths[0], "--method", "dis_fast").stdout)
