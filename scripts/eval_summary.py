@@ -33,6 +33,8 @@ RATIO_TARGET = 3.0       # sparsification area over the oracle's
 TOP_HALF_TARGET = 0.03   # bad2 of the most confident half
 WITHIN_1_SIGMA = (0.60, 0.80)
 WITHIN_2_SIGMA = (0.90, 0.98)
+# The tissue within 12 px of the instrument wrong at confidence >= 0.5, in a result.
+BESIDE_INSTRUMENT = ("instrument_bands", "tissue_within_12px", "confident_bad2_share")
 
 
 class Failure(Exception):
@@ -110,8 +112,7 @@ def summary(runs):
             if medians:
                 lines.append(("variance: median over the sequences of median |error| / sigma (a Gaussian: 0.674)",
                               "%.2f" % statistics.median(medians)))
-        beside = {k: figure(r, "instrument_bands", "tissue_within_12px", "confident_bad2_share")
-                  for k, r in scored.items()}
+        beside = {k: figure(r, *BESIDE_INSTRUMENT) for k, r in scored.items()}
         beside = {k: v for k, v in beside.items() if v is not None}
         if beside:
             worst = max(beside, key=beside.get)
@@ -140,9 +141,8 @@ def per_sequence(a, b):
         row = "%-28s density %s  bad2 %s %%  ratio %s  top half %s %%" % (
             k, pair("%.3f", 1, "density"), pair("%.2f", 100, "bad2"), pair("%.2f", 1, "confidence", "ratio"),
             pair("%.1f", 100, "confidence", "bad2_top50"))
-        beside = ("instrument_bands", "tissue_within_12px", "confident_bad2_share")
-        if figure(ra, *beside) is not None or figure(rb, *beside) is not None:
-            row += "  beside %s %%" % pair("%.2f", 100, *beside)
+        if figure(ra, *BESIDE_INSTRUMENT) is not None or figure(rb, *BESIDE_INSTRUMENT) is not None:
+            row += "  beside %s %%" % pair("%.2f", 100, *BESIDE_INSTRUMENT)
         rows.append(row)
     return rows
 
