@@ -16,6 +16,9 @@ are those of ../shared/data/README.md (ground truth > 0, non-black left).
 matched again with the right image warped by D (first) or by the ground truth
 (gt), both smoothed and hole-filled by a normalised Gaussian (sigma 3 px), and
 the residual added back (two bdis_match runs a frame; --bdis-match PATH).
+--set NAME=VALUE (repeatable) goes to the warped pair's bdis_match, e.g.
+two_scales=true to bound what a slant model would gain with the larger
+footprint (D from bdis_match with the same --set, to compare).
 
 Exits 1 with a message when an image is missing or unreadable, 2 on a usage error."""
 import argparse
@@ -55,7 +58,7 @@ def smooth_fill(disparity, sigma=3.0):
     return np.where(filled > 0, filled, wide).astype(np.float32)
 
 
-def warped_match(bdis_match, left, right, base, work):
+def warped_match(bdis_match, settings, left, right, base, work):
     """Disparity of `left` against `right` warped by `base`: base + residual."""
     h, w = base.shape
     xs, ys = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
@@ -69,8 +72,10 @@ def warped_match(bdis_match, left, right, base, work):
     cv2.imwrite(paths[0], left)
     cv2.imwrite(paths[1], warped)
     # The check's mirrored search has no meaning on a warped pair.
-    subprocess.run([bdis_match, paths[0], paths[1], paths[2], "--set", "lr_check_tolerance=0"],
-                   check=True, stdout=subprocess.DEVNULL)
+    command = [bdis_match, paths[0], paths[1], paths[2], "--set", "lr_check_tolerance=0"]
+    for setting in settings:
+        command += ["--set", setting]
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
     residual = common.read_png16(paths[2], 256.0)[0]
     return np.where(residual > 0, base + residual - WARP_SHIFT, 0).astype(np.float32)
 
@@ -91,7 +96,7 @@ def collect(args):
                 right = read_colour(os.path.join(args.sequence, "right", name))
                 base = smooth_fill(disparity if args.warp_by == "first" else gt)
                 # The first run's check decides what is published, as before.
-                disparity = np.where(disparity > 0, warped_match(args.bdis_match, left, right, base, work), 0)
+                disparity = np.where(disparity > 0, warped_match(args.bdis_match, args.set, left, right, base, work), 0)
             in_view = (gt > 0) & (left.max(axis=2) > 0)
             scorable += int(in_view.sum())
             estimated = in_view & (disparity > 0)
@@ -132,7 +137,14 @@ def main():
     parser.add_argument("--confidence", metavar="DIR", help="bdis_match --confidence-dir of the run")
     parser.add_argument("--warp-by", choices=("first", "gt"), help="measure the warping prototype")
     parser.add_argument("--bdis-match", default=None, help="bdis_match to run for --warp-by")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="with --warp-by: a matcher parameter for the warped pair (repeatable)")
     args = parser.parse_args()
+    if args.set and not args.warp_by:
+        parser.error("--set applies to --warp-by's matching only")
+    bad = [s for s in args.set if "=" not in s]
+    if bad:
+        parser.error("--set needs NAME=VALUE, got %s" % bad[0])
     if args.warp_by and not args.bdis_match:
         args.bdis_match = common.find_program("bdis_match")
     try:

@@ -374,6 +374,48 @@ class TestDemo(unittest.TestCase):
         self.assertEqual(missing.returncode, 1, missing.stdout)
         self.assertIn("cannot read", missing.stdout)
 
+    def test_8b_error_by_surface_warps_and_passes_settings_on(self):
+        """scripts/error_by_surface.py --warp-by gt: the warped pair goes to
+        bdis_match with the check off and each --set after it, and the
+        residual it returns is added to the warp (a stand-in bdis_match that
+        records its arguments and answers a residual 3 px past the shift:
+        every estimate 3 px too near); --set without --warp-by, or without
+        NAME=VALUE, is a usage error."""
+        root = os.path.join(self.tmp, "warp")
+        h, w = 32, 64
+        gt = np.full((h, w), 20.0, np.float32)
+        for sub, image in (("seq/left", np.full((h, w, 3), 100, np.uint8)),
+                           ("seq/right", np.full((h, w, 3), 100, np.uint8)),
+                           ("seq/gt_disparity", np.round(gt * 256).astype(np.uint16)),
+                           ("d", np.round(gt * 256).astype(np.uint16))):
+            os.makedirs(os.path.join(root, sub), exist_ok=True)
+            self.assertTrue(cv2.imwrite(os.path.join(root, sub, "000000.png"), image))
+        record = os.path.join(root, "arguments.json")
+        fake = os.path.join(root, "bdis_match")
+        with open(fake, "w") as f:
+            f.write("#!%s\nimport json, sys\nimport cv2, numpy as np\n"
+                    "json.dump(sys.argv[1:], open(%r, 'w'))\n"
+                    "left = cv2.imread(sys.argv[1])\n"
+                    "cv2.imwrite(sys.argv[3], np.full(left.shape[:2], (16 + 3) * 256, np.uint16))\n"
+                    % (sys.executable, record))
+        os.chmod(fake, 0o755)
+        script = os.path.join(REPO, "scripts", "error_by_surface.py")
+
+        def run(*extra):
+            return subprocess.run([sys.executable, script, os.path.join(root, "seq"), os.path.join(root, "d")]
+                                  + list(extra), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+
+        r = run("--warp-by", "gt", "--bdis-match", fake, "--set", "two_scales=true", "--set", "patch_size=6")
+        self.assertEqual(r.returncode, 0, r.stdout)
+        self.assertIn("1 frames, density 1.000, bad2 100.0 % (warped by gt)", r.stdout)
+        self.assertIn("100 % too large a disparity (too near), 0 % too small", r.stdout)
+        self.assertIn("the wrong ones by error: 2-4 px 100 %", r.stdout)
+        with open(record) as f:
+            self.assertEqual(json.load(f)[3:], ["--set", "lr_check_tolerance=0", "--set", "two_scales=true",
+                                                "--set", "patch_size=6"])
+        self.assertEqual(run("--set", "two_scales=true").returncode, 2)
+        self.assertEqual(run("--warp-by", "gt", "--bdis-match", fake, "--set", "two_scales").returncode, 2)
+
     def test_9_eval_generated_renders_once_and_scores_every_scene(self):
         """scripts/eval_generated.sh: each variant and seed rendered into the
         cache and scored in one bdis_eval run under its own name, the bdis_eval
