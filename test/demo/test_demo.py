@@ -390,16 +390,18 @@ class TestDemo(unittest.TestCase):
                            ("d", np.round(gt * 256).astype(np.uint16))):
             os.makedirs(os.path.join(root, sub), exist_ok=True)
             self.assertTrue(cv2.imwrite(os.path.join(root, sub, "000000.png"), image))
+        script = os.path.join(REPO, "scripts", "error_by_surface.py")
+        with open(script) as f:  # the shift the script adds to keep the residual >= 0
+            shift = int(re.search(r"^WARP_SHIFT = (\d+)", f.read(), re.M).group(1))
         record = os.path.join(root, "arguments.json")
         fake = os.path.join(root, "bdis_match")
         with open(fake, "w") as f:
             f.write("#!%s\nimport json, sys\nimport cv2, numpy as np\n"
                     "json.dump(sys.argv[1:], open(%r, 'w'))\n"
                     "left = cv2.imread(sys.argv[1])\n"
-                    "cv2.imwrite(sys.argv[3], np.full(left.shape[:2], (16 + 3) * 256, np.uint16))\n"
-                    % (sys.executable, record))
+                    "cv2.imwrite(sys.argv[3], np.full(left.shape[:2], (%d + 3) * 256, np.uint16))\n"
+                    % (sys.executable, record, shift))
         os.chmod(fake, 0o755)
-        script = os.path.join(REPO, "scripts", "error_by_surface.py")
 
         def run(*extra):
             return subprocess.run([sys.executable, script, os.path.join(root, "seq"), os.path.join(root, "d")]
